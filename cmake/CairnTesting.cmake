@@ -1,0 +1,17 @@
+# cairn_add_test(NAME name SOURCES ... LIBS ... LABELS ... [TIMEOUT s])
+# One GoogleTest executable registered as one CTest test with the area labels.
+# Every test runs with the project's loopback-only Cyclone DDS profile.
+function(cairn_add_test)
+  cmake_parse_arguments(T "" "NAME;TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
+  add_executable(${T_NAME} ${T_SOURCES})
+  target_link_libraries(${T_NAME} PRIVATE ${T_LIBS} GTest::gtest_main)
+  cairn_warnings(${T_NAME})
+  if(NOT T_TIMEOUT)
+    set(T_TIMEOUT 120)
+  endif()
+  add_test(NAME ${T_NAME} COMMAND ${T_NAME})
+  set_tests_properties(${T_NAME} PROPERTIES
+    LABELS "${T_LABELS}"
+    TIMEOUT ${T_TIMEOUT}
+    ENVIRONMENT "CYCLONEDDS_URI=file://${PROJECT_SOURCE_DIR}/config/dds/loopback.xml;CAIRN_SOURCE_DIR=${PROJECT_SOURCE_DIR};CAIRN_BINARY_DIR=${PROJECT_BINARY_DIR}")
+endfunction()

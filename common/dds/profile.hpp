@@ -1,0 +1,40 @@
+// Which Cyclone DDS configuration a Cairn program runs with.
+//
+//   loopback  (default) interface lo, no multicast, peer 127.0.0.1 — config/dds/loopback.xml
+//   lan       explicit interface and unicast peers from the program's [dds] section
+//   env       whatever CYCLONEDDS_URI says (explicitly requested only)
+//   PATH.xml  a Cyclone configuration file
+//
+// When the [dds] section is absent the profile is "loopback" unless
+// CYCLONEDDS_URI is set, in which case that is used (and logged).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace cairn {
+class ConfigSection;
+}
+
+namespace cairn::dds {
+
+struct DdsProfile {
+  std::string name;         // "loopback", "lan", "env" or the file path
+  std::string xml;          // configuration text passed to dds_create_domain ("" = use CYCLONEDDS_URI)
+  std::string description;  // one line for the start-up log: interface, multicast, peers
+  std::uint32_t domain = 0;
+  bool loopback_only = false;
+};
+
+/// The built-in loopback profile (the text of config/dds/loopback.xml).
+const std::string& loopback_xml();
+DdsProfile loopback_profile(std::uint32_t domain = 0);
+DdsProfile lan_profile(const std::string& interface_name, const std::vector<std::string>& peers,
+                       std::uint32_t domain = 0);
+
+/// Reads the optional [dds] section: profile, domain, interface, peers.
+DdsProfile profile_from_config(const std::optional<ConfigSection>& dds_section);
+
+}  // namespace cairn::dds

@@ -1,0 +1,158 @@
+// Typed topic, writer and reader over the Cyclone DDS C API.
+//
+// A type T (an idlc-generated C struct) is usable once TopicTraits<T> gives its
+// descriptor and topic name (see common/dds/topics.hpp).
+#pragma once
+
+#include <dds/dds.h>
+
+#include <cstdint>
+#include <string>
+
+#include "common/clock.hpp"
+#include "common/dds/error.hpp"
+#include "common/dds/participant.hpp"
+#include "common/dds/qos.hpp"
+
+namespace cairn::dds {
+
+template <typename T>
+struct TopicTraits;  // { static const dds_topic_descriptor_t* descriptor(); static constexpr const char* name; }
+
+template <typename T>
+class Topic {
+ public:
+  explicit Topic(const Participant& pp) {
+    const dds_entity_t t = dds_create_topic(pp.handle(), TopicTraits<T>::descriptor(), TopicTraits<T>::name, nullptr, nullptr);
+    check(t, std::string("dds_create_topic(") + TopicTraits<T>::name + ")");
+    topic_ = Entity(t);
+  }
+  dds_entity_t handle() const { return topic_.get(); }
+  const char* name() const { return TopicTraits<T>::name; }
+
+ private:
+  Entity topic_;
+};
+
+template <typename T>
+class Writer {
+ public:
+  Writer(const Participant& pp, const Topic<T>& topic, const QosSpec& qos) {
+    dds_qos_t* q = make_qos(qos);
+    const dds_entity_t w = dds_create_writer(pp.handle(), topic.handle(), q, nullptr);
+    dds_delete_qos(q);
+    check(w, std::string("dds_create_writer(") + topic.name() + ")");
+    writer_ = Entity(w);
+    name_ = topic.name();
+  }
+
+  /// Returns false (and counts) if DDS refused the sample; never throws (safe in loops).
+  bool write(const T& sample) {
+    const dds_return_t rc = dds_write(writer_.get(), &sample);
+    if (rc < 0) {
+      ++failures_;
+      last_error_ = rc;
+      return false;
+    }
+    ++written_;
+    return true;
+  }
+  /// Tells readers this instance (robot) is gone for good.
+  bool dispose(const T& key_sample) { return dds_dispose(writer_.get(), &key_sample) >= 0; }
+  /// Tells readers this writer no longer writes the instance (they see "no writers").
+  bool unregister(const T& key_sample) { return dds_unregister_instance(writer_.get(), &key_sample) >= 0; }
+
+  /// Waits until at least n readers matched; false on timeout.
+  bool wait_for_readers(std::uint32_t n, Nanos timeout) {
+    const Nanos deadline = MonotonicClock::instance().now() + timeout;
+    dds_publication_matched_status_t st{};
+    for (;;) {
+      check(dds_get_publication_matched_status(writer_.get(), &st), "dds_get_publication_matched_status");
+      if (st.current_count >= n) return true;
+      if (MonotonicClock::instance().now() >= deadline) return false;
+      dds_sleepfor(DDS_MSECS(5));
+    }
+  }
+
+  dds_entity_t handle() const { return writer_.get(); }
+  std::uint64_t written() const { return written_; }
+  std::uint64_t failures() const { return failures_; }
+  dds_return_t last_error() const { return last_error_; }
+
+ private:
+  Entity writer_;
+  const char* name_ = "";
+  std::uint64_t written_ = 0;
+  std::uint64_t failures_ = 0;
+  dds_return_t last_error_ = 0;
+};
+
+/// What happened to an instance (robot) when a reader sees an invalid sample.
+enum class InstanceEvent { kDisposed, kNoWriters };
+
+template <typename T>
+class Reader {
+ public:
+  Reader(const Participant& pp, const Topic<T>& topic, const QosSpec& qos) {
+    dds_qos_t* q = make_qos(qos);
+    const dds_entity_t r = dds_create_reader(pp.handle(), topic.handle(), q, nullptr);
+    dds_delete_qos(q);
+    check(r, std::string("dds_create_reader(") + topic.name() + ")");
+    reader_ = Entity(r);
+    const dds_entity_t cond = dds_create_readcondition(r, DDS_ANY_STATE);
+    check(cond, "dds_create_readcondition");
+    const dds_entity_t ws = dds_create_waitset(pp.handle());
+    check(ws, "dds_create_waitset");
+    waitset_ = Entity(ws);
+    check(dds_waitset_attach(ws, cond, 0), "dds_waitset_attach");
+  }
+
+  /// Blocks until data (or an instance state change) is available or the timeout passes.
+  bool wait(Nanos timeout) {
+    const dds_return_t n = dds_waitset_wait(waitset_.get(), nullptr, 0, timeout);
+    check(n, "dds_waitset_wait");
+    return n > 0;
+  }
+
+  /// Takes everything available. on_sample(const T&, const dds_sample_info_t&) for data;
+  /// on_event(const T& key_fields, InstanceEvent) when an instance is disposed or lost its writers.
+  template <typename OnSample, typename OnEvent>
+  std::size_t take(OnSample&& on_sample, OnEvent&& on_event) {
+    constexpr int kBatch = 16;
+    std::size_t total = 0;
+    for (;;) {
+      void* samples[kBatch] = {};
+      dds_sample_info_t infos[kBatch];
+      const dds_return_t n = dds_take(reader_.get(), samples, infos, kBatch, kBatch);
+      check(n, "dds_take");
+      for (int i = 0; i < n; ++i) {
+        const T& s = *static_cast<const T*>(samples[i]);
+        if (infos[i].valid_data) {
+          on_sample(s, infos[i]);
+          ++total;
+        } else if (infos[i].instance_state == DDS_IST_NOT_ALIVE_DISPOSED) {
+          on_event(s, InstanceEvent::kDisposed);
+        } else if (infos[i].instance_state == DDS_IST_NOT_ALIVE_NO_WRITERS) {
+          on_event(s, InstanceEvent::kNoWriters);
+        }
+      }
+      if (n > 0) dds_return_loan(reader_.get(), samples, n);
+      if (n < kBatch) break;
+    }
+    return total;
+  }
+
+  /// Takes data only.
+  template <typename OnSample>
+  std::size_t take(OnSample&& on_sample) {
+    return take(std::forward<OnSample>(on_sample), [](const T&, InstanceEvent) {});
+  }
+
+  dds_entity_t handle() const { return reader_.get(); }
+
+ private:
+  Entity reader_;
+  Entity waitset_;
+};
+
+}  // namespace cairn::dds

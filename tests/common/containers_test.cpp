@@ -1,0 +1,149 @@
+#include <gtest/gtest.h>
+
+#include <thread>
+
+#include "common/arena.hpp"
+#include "common/fixed_vector.hpp"
+#include "common/latest_box.hpp"
+#include "common/ring_buffer.hpp"
+#include "common/spsc_queue.hpp"
+
+namespace cairn {
+namespace {
+
+TEST(FixedVector, RefusesAndCountsPastCapacity) {
+  FixedVector<int> v(3);
+  EXPECT_TRUE(v.push_back(1));
+  EXPECT_TRUE(v.push_back(2));
+  EXPECT_TRUE(v.push_back(3));
+  EXPECT_TRUE(v.full());
+  EXPECT_FALSE(v.push_back(4));
+  EXPECT_EQ(v.emplace_slot(), nullptr);
+  EXPECT_EQ(v.size(), 3u);
+  EXPECT_EQ(v.overflows(), 2u);
+  EXPECT_EQ(v[2], 3);
+  EXPECT_THROW(v.at(3), std::out_of_range);
+  v.clear();
+  EXPECT_TRUE(v.empty());
+  EXPECT_TRUE(v.push_back(7));
+  int sum = 0;
+  for (int x : v) sum += x;
+  EXPECT_EQ(sum, 7);
+}
+
+TEST(FixedVector, ZeroCapacityNeverAccepts) {
+  FixedVector<int> v(0);
+  EXPECT_FALSE(v.push_back(1));
+  EXPECT_EQ(v.overflows(), 1u);
+}
+
+TEST(RingBuffer, RejectPolicyKeepsOldest) {
+  RingBuffer<int> r(2, WhenFull::kReject);
+  EXPECT_TRUE(r.push(1));
+  EXPECT_TRUE(r.push(2));
+  EXPECT_FALSE(r.push(3));
+  EXPECT_EQ(r.overflows(), 1u);
+  int x = 0;
+  ASSERT_TRUE(r.pop(&x));
+  EXPECT_EQ(x, 1);
+}
+
+TEST(RingBuffer, OverwritePolicyKeepsNewestAndCountsDrops) {
+  RingBuffer<int> r(3, WhenFull::kOverwriteOldest);
+  for (int i = 1; i <= 5; ++i) EXPECT_TRUE(r.push(i));
+  EXPECT_EQ(r.size(), 3u);
+  EXPECT_EQ(r.overflows(), 2u);
+  EXPECT_EQ(r.oldest(), 3);
+  EXPECT_EQ(r.newest(), 5);
+  EXPECT_EQ(r[1], 4);
+}
+
+TEST(SpscQueue, FifoAndOverflow) {
+  SpscQueue<int> q(4);
+  EXPECT_EQ(q.capacity(), 4u);
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(q.push(i));
+  EXPECT_FALSE(q.push(99));
+  EXPECT_EQ(q.overflows(), 1u);
+  EXPECT_EQ(q.size(), 4u);
+  int x = -1;
+  for (int i = 0; i < 4; ++i) {
+    ASSERT_TRUE(q.pop(&x));
+    EXPECT_EQ(x, i);
+  }
+  EXPECT_FALSE(q.pop(&x));
+}
+
+TEST(SpscQueue, TwoThreadsTransferEverythingInOrder) {
+  SpscQueue<std::uint64_t> q(64);
+  constexpr std::uint64_t kCount = 200000;
+  std::thread producer([&] {
+    for (std::uint64_t i = 0; i < kCount;) {
+      if (q.push(i)) ++i;
+    }
+  });
+  std::uint64_t expected = 0;
+  while (expected < kCount) {
+    std::uint64_t v;
+    if (q.pop(&v)) {
+      ASSERT_EQ(v, expected);
+      ++expected;
+    }
+  }
+  producer.join();
+  EXPECT_GT(q.overflows(), 0u);  // the producer outran the consumer at least once, and was told so
+}
+
+struct Big {
+  std::uint64_t a, b, c, d;  // a torn read would show unequal fields
+};
+
+TEST(LatestBox, ReaderSeesNewestAndNeverTorn) {
+  LatestBox<Big> box;
+  Big out{};
+  EXPECT_FALSE(box.read(&out));
+  box.write({1, 1, 1, 1});
+  box.write({2, 2, 2, 2});
+  EXPECT_TRUE(box.read(&out));
+  EXPECT_EQ(out.a, 2u);
+  EXPECT_FALSE(box.read(&out));
+  EXPECT_EQ(out.d, 2u);
+
+  LatestBox<Big> shared;
+  constexpr std::uint64_t kWrites = 200000;
+  std::thread writer([&] {
+    for (std::uint64_t i = 1; i <= kWrites; ++i) shared.write({i, i, i, i});
+  });
+  std::uint64_t last = 0;
+  while (last < kWrites) {
+    Big b{};
+    shared.read(&b);
+    ASSERT_EQ(b.a, b.b);
+    ASSERT_EQ(b.a, b.c);
+    ASSERT_EQ(b.a, b.d);
+    ASSERT_GE(b.a, last);  // never goes back in time
+    last = b.a;
+  }
+  writer.join();
+  EXPECT_EQ(shared.writes(), kWrites);
+}
+
+TEST(Arena, HandsOutAlignedMemoryUntilSealed) {
+  Arena arena(1024);
+  auto* d = arena.make_array<double>(10);
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(d) % alignof(double), 0u);
+  EXPECT_EQ(d[9], 0.0);
+  auto* c = arena.make<char>('x');
+  ASSERT_NE(c, nullptr);
+  auto* i = arena.make<std::uint64_t>(5u);
+  ASSERT_NE(i, nullptr);
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(i) % alignof(std::uint64_t), 0u);
+  EXPECT_EQ(arena.make_array<char>(4096), nullptr);  // exhausted
+  EXPECT_EQ(arena.refused(), 1u);
+  arena.seal();
+  EXPECT_EQ(arena.make<int>(1), nullptr);
+  EXPECT_EQ(arena.refused(), 2u);
+}
+
+}  // namespace
+}  // namespace cairn
