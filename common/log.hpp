@@ -43,7 +43,7 @@ struct LogArg {
 
 struct LogRecord {
   static constexpr std::size_t kMaxArgs = 8;
-  static constexpr std::size_t kTextBytes = 96;
+  static constexpr std::size_t kTextBytes = 192;
   Nanos time = 0;
   LogLevel level = LogLevel::kInfo;
   std::uint8_t nargs = 0;

@@ -130,7 +130,17 @@ class Reader {
         if (infos[i].valid_data) {
           on_sample(s, infos[i]);
           ++total;
-        } else if (infos[i].instance_state == DDS_IST_NOT_ALIVE_DISPOSED) {
+        }
+        // A state change arrives either as an invalid sample or on the instance's
+        // last data sample still unread; report it once, after that sample.
+        const bool last_of_instance = [&] {
+          for (int j = i + 1; j < n; ++j) {
+            if (infos[j].instance_handle == infos[i].instance_handle) return false;
+          }
+          return true;
+        }();
+        if (!last_of_instance) continue;
+        if (infos[i].instance_state == DDS_IST_NOT_ALIVE_DISPOSED) {
           on_event(s, InstanceEvent::kDisposed);
         } else if (infos[i].instance_state == DDS_IST_NOT_ALIVE_NO_WRITERS) {
           on_event(s, InstanceEvent::kNoWriters);

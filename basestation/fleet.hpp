@@ -1,0 +1,58 @@
+// The base station's view of the fleet: who is there, in what state, when last
+// heard from. Pure bookkeeping on plain data (time is passed in), so it is
+// testable without DDS.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <string>
+
+#include "common/clock.hpp"
+
+namespace cairn::base {
+
+enum class Presence { kAlive, kStale, kLost, kLeft };
+const char* presence_name(Presence p);
+
+struct RobotEntry {
+  std::uint16_t id = 0;
+  std::string name;
+  std::string mode;
+  Presence presence = Presence::kAlive;
+  Nanos first_seen = 0;
+  Nanos last_seen = 0;
+  std::uint32_t last_seq = 0;
+  std::uint64_t messages = 0;
+  std::uint32_t joins = 0;
+};
+
+class Fleet {
+ public:
+  /// Called with a one-line description of each change (joined, lost, left, stale, back).
+  using EventSink = std::function<void(const std::string&)>;
+
+  Fleet(Nanos stale_after, EventSink sink) : stale_after_(stale_after), sink_(std::move(sink)) {}
+
+  void on_status(std::uint16_t id, const std::string& name, const std::string& mode, std::uint32_t seq, Nanos now);
+  /// The DDS layer saw the robot's writer vanish (liveliness lost) or dispose (clean shutdown).
+  void on_lost(std::uint16_t id, Nanos now);
+  void on_left(std::uint16_t id, Nanos now);
+  /// Marks silent robots stale.
+  void tick(Nanos now);
+
+  /// A fixed-width table of every robot ever seen.
+  std::string table(Nanos now) const;
+  const std::map<std::uint16_t, RobotEntry>& robots() const { return robots_; }
+  std::size_t alive_count() const;
+
+ private:
+  void emit(const std::string& s) {
+    if (sink_) sink_(s);
+  }
+  Nanos stale_after_;
+  EventSink sink_;
+  std::map<std::uint16_t, RobotEntry> robots_;
+};
+
+}  // namespace cairn::base

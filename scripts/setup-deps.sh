@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# Installs the Debian packages Cairn needs, by name, skipping those already
+# installed. Idempotent; safe to run again. Needs root (uses sudo if not root).
+#
+#   scripts/setup-deps.sh            build + test dependencies
+#   scripts/setup-deps.sh --peers    also the peer baselines used by benchmarks (MRPT)
+#   scripts/setup-deps.sh --vm       also what the qemu VM bench needs
+#   scripts/setup-deps.sh --cross    also the aarch64/armhf cross toolchains and target libraries
+set -euo pipefail
+
+core=(
+  ca-certificates cmake ninja-build g++ clang pkg-config file
+  libeigen3-dev
+  cyclonedds-dev cyclonedds-tools
+  libmodbus-dev libserialport-dev
+  libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libpng-dev
+  googletest libgtest-dev libgmock-dev libbenchmark-dev
+)
+extra=()
+for arg in "$@"; do
+  case "$arg" in
+    --peers) extra+=(libmrpt-dev) ;;
+    --vm) extra+=(qemu-system-x86 linux-image-amd64 busybox-static kmod cpio iproute2) ;;
+    --cross) extra+=(g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user qemu-user-static) ;;
+    -h|--help) sed -n '2,9p' "$0"; exit 0 ;;
+    *) echo "setup-deps: unknown option '$arg' (try --help)" >&2; exit 2 ;;
+  esac
+done
+
+missing=()
+for p in "${core[@]}" "${extra[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]} == 0)); then
+  echo "setup-deps: all ${#core[@]}+${#extra[@]} packages already installed"
+  exit 0
+fi
+
+SUDO=()
+if [[ $(id -u) -ne 0 ]]; then
+  command -v sudo >/dev/null || { echo "setup-deps: not root and no sudo: install as root: ${missing[*]}" >&2; exit 1; }
+  SUDO=(sudo)
+fi
+echo "setup-deps: installing ${#missing[@]} package(s): ${missing[*]}"
+"${SUDO[@]}" apt-get update -q
+DEBIAN_FRONTEND=noninteractive "${SUDO[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
+echo "setup-deps: done"

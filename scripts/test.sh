@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Installs what is missing, builds with warnings as errors, and runs the whole
+# test suite; then builds with ASan+UBSan and runs the unit tests again.
+#   scripts/test.sh [--quick]   (--quick: skip the sanitizer pass)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+quick=0
+[[ ${1:-} == --quick ]] && quick=1
+
+scripts/setup-deps.sh
+export CYCLONEDDS_URI="file://$PWD/config/dds/loopback.xml"   # every DDS program stays on loopback
+start=$(date +%s)
+
+echo "== test: build (ci preset: release, -Werror)"
+scripts/build.sh ci
+echo "== test: full suite"
+ctest --preset ci -j2
+
+if ((quick == 0)); then
+  echo "== test: build (asan preset: ASan + UBSan, -Werror)"
+  scripts/build.sh asan
+  echo "== test: unit and integration tests under ASan + UBSan"
+  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+    ctest --preset asan -j2 -LE 'bench|slow'
+fi
+echo "== test: all passed in $(( $(date +%s) - start )) s"
