@@ -9,7 +9,7 @@
 set -euo pipefail
 
 core=(
-  ca-certificates cmake ninja-build g++ clang pkg-config file
+  ca-certificates cmake ninja-build g++ clang pkg-config file bc
   libeigen3-dev
   cyclonedds-dev cyclonedds-tools
   libmodbus-dev libserialport-dev

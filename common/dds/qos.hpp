@@ -12,7 +12,7 @@ namespace cairn::dds {
 struct QosSpec {
   bool reliable = true;
   bool transient_local = false;
-  std::int32_t depth = 1;   // keep-last depth per instance (per robot)
+  std::int32_t depth = 1;   // keep-last depth per instance (per robot); <= 0 means keep-all
   Nanos liveliness_lease = 0;  // 0 = infinite; else AUTOMATIC liveliness with this lease
 };
 

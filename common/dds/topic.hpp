@@ -22,15 +22,17 @@ struct TopicTraits;  // { static const dds_topic_descriptor_t* descriptor(); sta
 template <typename T>
 class Topic {
  public:
-  explicit Topic(const Participant& pp) {
-    const dds_entity_t t = dds_create_topic(pp.handle(), TopicTraits<T>::descriptor(), TopicTraits<T>::name, nullptr, nullptr);
-    check(t, std::string("dds_create_topic(") + TopicTraits<T>::name + ")");
+  /// The type's standard topic, or another topic of the same type under `name`.
+  explicit Topic(const Participant& pp, const char* name = TopicTraits<T>::name) : name_(name) {
+    const dds_entity_t t = dds_create_topic(pp.handle(), TopicTraits<T>::descriptor(), name, nullptr, nullptr);
+    check(t, std::string("dds_create_topic(") + name + ")");
     topic_ = Entity(t);
   }
   dds_entity_t handle() const { return topic_.get(); }
-  const char* name() const { return TopicTraits<T>::name; }
+  const char* name() const { return name_; }
 
  private:
+  const char* name_;
   Entity topic_;
 };
 
