@@ -1,6 +1,12 @@
 # cairn_add_test(NAME name SOURCES ... LIBS ... LABELS ... [TIMEOUT s])
 # One GoogleTest executable registered as one CTest test with the area labels.
 # Every test runs with the project's loopback-only Cyclone DDS profile.
+set(CAIRN_TEST_ENVIRONMENT
+  "CYCLONEDDS_URI=file://${PROJECT_SOURCE_DIR}/config/dds/loopback.xml"
+  "CAIRN_SOURCE_DIR=${PROJECT_SOURCE_DIR}"
+  "CAIRN_BINARY_DIR=${PROJECT_BINARY_DIR}"
+  "TSAN_OPTIONS=suppressions=${PROJECT_SOURCE_DIR}/tests/tsan.supp")
+
 function(cairn_add_test)
   cmake_parse_arguments(T "" "NAME;TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${T_NAME} ${T_SOURCES})
@@ -13,5 +19,5 @@ function(cairn_add_test)
   set_tests_properties(${T_NAME} PROPERTIES
     LABELS "${T_LABELS}"
     TIMEOUT ${T_TIMEOUT}
-    ENVIRONMENT "CYCLONEDDS_URI=file://${PROJECT_SOURCE_DIR}/config/dds/loopback.xml;CAIRN_SOURCE_DIR=${PROJECT_SOURCE_DIR};CAIRN_BINARY_DIR=${PROJECT_BINARY_DIR}")
+    ENVIRONMENT "${CAIRN_TEST_ENVIRONMENT}")
 endfunction()

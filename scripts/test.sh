@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds with warnings as errors, and runs the whole
-# test suite; then builds with ASan+UBSan and runs the unit tests again.
-#   scripts/test.sh [--quick]   (--quick: skip the sanitizer pass)
+# test suite; then builds with ASan+UBSan and with TSan and runs the tests again.
+#   scripts/test.sh [--quick]   (--quick: skip the sanitizer passes)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 quick=0
@@ -22,5 +22,9 @@ if ((quick == 0)); then
   echo "== test: unit and integration tests under ASan + UBSan"
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --preset asan -j2 -LE 'bench|slow'
+  echo "== test: build (tsan preset: ThreadSanitizer, -Werror)"
+  scripts/build.sh tsan
+  echo "== test: unit and integration tests under TSan"
+  TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1" ctest --preset tsan -j2 -LE 'bench|slow'
 fi
 echo "== test: all passed in $(( $(date +%s) - start )) s"
