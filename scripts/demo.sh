@@ -32,7 +32,7 @@ for id in 1 2 3; do
   pids+=($!)
 done
 sleep 7.5
-kill -9 "${pids[1]}" 2>/dev/null || true
+{ kill -9 "${pids[1]}" && wait "${pids[1]}"; } 2>/dev/null || true
 sleep 4
 $B/firmware/cairn-robot --config config/robot.toml --id 2 --duration "$((duration - 12))" 2>/dev/null &
 pids+=($!)
