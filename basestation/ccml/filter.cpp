@@ -1,0 +1,286 @@
+#include "basestation/ccml/filter.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+namespace cairn::ccml {
+
+CcmlFilter::CcmlFilter(std::size_t initial_capacity) {
+  x_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(initial_capacity));
+  P_ = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(initial_capacity), static_cast<Eigen::Index>(initial_capacity));
+}
+
+void CcmlFilter::reserve(std::size_t dim) {
+  if (dim <= static_cast<std::size_t>(x_.size())) return;
+  std::size_t cap = std::max<std::size_t>(dim, static_cast<std::size_t>(x_.size()) * 2);
+  const auto c = static_cast<Eigen::Index>(cap), n = static_cast<Eigen::Index>(n_);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(c);
+  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(c, c);
+  x.head(n) = x_.head(n);
+  P.topLeftCorner(n, n) = P_.topLeftCorner(n, n);
+  x_.swap(x);
+  P_.swap(P);
+}
+
+int CcmlFilter::append(int dim) {
+  reserve(n_ + static_cast<std::size_t>(dim));
+  const int offset = static_cast<int>(n_);
+  const auto cap = x_.size();
+  P_.block(offset, 0, dim, cap).setZero();
+  P_.block(0, offset, cap, dim).setZero();
+  x_.segment(offset, dim).setZero();
+  n_ += static_cast<std::size_t>(dim);
+  return offset;
+}
+
+void CcmlFilter::erase(int offset, int dim) {
+  const auto n = static_cast<Eigen::Index>(n_);
+  const Eigen::Index tail = n - offset - dim;
+  if (tail > 0) {
+    x_.segment(offset, tail) = x_.segment(offset + dim, tail).eval();
+    P_.block(offset, 0, tail, n) = P_.block(offset + dim, 0, tail, n).eval();
+    P_.block(0, offset, n, tail) = P_.block(0, offset + dim, n, tail).eval();
+  }
+  n_ -= static_cast<std::size_t>(dim);
+  for (auto* map : {&robots_, &features_}) {
+    for (auto& [id, slot] : *map) {
+      if (slot.offset > offset) slot.offset -= dim;
+    }
+  }
+}
+
+// ---------------------------------------------------------------- robots
+
+void CcmlFilter::add_robot(RobotId id, const Pose2& pose, const Mat3& cov) {
+  if (has_robot(id)) throw std::invalid_argument("ccml: robot " + std::to_string(id) + " already in the state");
+  const int o = append(3);
+  x_.segment<3>(o) = pose.vector();
+  P_.block<3, 3>(o, o) = cov;
+  robots_[id] = {o, 3};
+}
+
+void CcmlFilter::remove_robot(RobotId id) {
+  const Slot s = robots_.at(id);
+  robots_.erase(id);
+  erase(s.offset, s.dim);
+}
+
+int CcmlFilter::robot_offset(RobotId id) const {
+  auto it = robots_.find(id);
+  if (it == robots_.end()) throw std::out_of_range("ccml: unknown robot " + std::to_string(id));
+  return it->second.offset;
+}
+
+int CcmlFilter::feature_offset(FeatureId id) const {
+  auto it = features_.find(id);
+  if (it == features_.end()) throw std::out_of_range("ccml: unknown feature " + std::to_string(id));
+  return it->second.offset;
+}
+
+Pose2 CcmlFilter::robot_pose(RobotId id) const { return pose_at(robot_offset(id), x_); }
+Mat3 CcmlFilter::robot_cov(RobotId id) const {
+  const int o = robot_offset(id);
+  return P_.block<3, 3>(o, o);
+}
+void CcmlFilter::set_robot_pose(RobotId id, const Pose2& pose) {
+  x_.segment<3>(robot_offset(id)) = Pose2{pose.x, pose.y, normalize_angle(pose.theta)}.vector();
+}
+
+std::vector<RobotId> CcmlFilter::robot_ids() const {
+  std::vector<RobotId> ids;
+  for (const auto& [id, s] : robots_) ids.push_back(id);
+  std::sort(ids.begin(), ids.end());
+  return ids;
+}
+
+// ---------------------------------------------------------------- features
+
+FeatureId CcmlFilter::add_feature(RobotId observer, const RangeBearing& z, const Mat2& R) {
+  const int o = robot_offset(observer);
+  const Pose2 pose = pose_at(o, x_);
+  Mat23 g_pose;
+  Mat2 g_z;
+  point_from_observation_jacobians(pose, z, &g_pose, &g_z);
+  const int f = append(2);
+  const auto n = static_cast<Eigen::Index>(n_);
+  x_.segment<2>(f) = point_from_observation(pose, z);
+  // Cross-covariances with everything already in the state: G_pose · P_pose,•.
+  const Eigen::MatrixXd cross = g_pose * P_.block(o, 0, 3, f);
+  P_.block(f, 0, 2, f) = cross;
+  P_.block(0, f, f, 2) = cross.transpose();
+  P_.block<2, 2>(f, f) = g_pose * P_.block<3, 3>(o, o) * g_pose.transpose() + g_z * R * g_z.transpose();
+  (void)n;
+  const FeatureId id = next_feature_++;
+  features_[id] = {f, 2};
+  return id;
+}
+
+FeatureId CcmlFilter::add_feature_prior(const Vec2& position, const Mat2& cov) {
+  const int f = append(2);
+  x_.segment<2>(f) = position;
+  P_.block<2, 2>(f, f) = cov;
+  const FeatureId id = next_feature_++;
+  features_[id] = {f, 2};
+  return id;
+}
+
+Vec2 CcmlFilter::feature(FeatureId id) const { return x_.segment<2>(feature_offset(id)); }
+Mat2 CcmlFilter::feature_cov(FeatureId id) const {
+  const int o = feature_offset(id);
+  return P_.block<2, 2>(o, o);
+}
+
+std::vector<FeatureId> CcmlFilter::feature_ids() const {
+  std::vector<FeatureId> ids;
+  for (const auto& [id, s] : features_) ids.push_back(id);
+  std::sort(ids.begin(), ids.end());
+  return ids;
+}
+
+// ---------------------------------------------------------------- prediction
+
+void CcmlFilter::predict(RobotId id, const Pose2& delta, const Mat3& delta_cov) {
+  const int o = robot_offset(id);
+  const auto n = static_cast<Eigen::Index>(n_);
+  const Pose2 pose = pose_at(o, x_);
+  Mat3 F, G;
+  compose_jacobians(pose, delta, &F, &G);
+  x_.segment<3>(o) = compose(pose, delta).vector();
+  // P ← F_full P F_fullᵀ where F_full is the identity except the robot's block: O(n).
+  P_.block(o, 0, 3, n) = (F * P_.block(o, 0, 3, n)).eval();
+  P_.block(0, o, n, 3) = (P_.block(0, o, n, 3) * F.transpose()).eval();
+  P_.block<3, 3>(o, o) += G * delta_cov * G.transpose();
+}
+
+void CcmlFilter::add_process_noise(RobotId id, const Mat3& q_global) {
+  const int o = robot_offset(id);
+  P_.block<3, 3>(o, o) += q_global;
+}
+
+// ---------------------------------------------------------------- measurements
+
+int CcmlFilter::target_offset(const Measurement& m) const {
+  return m.target_kind == Measurement::Target::kFeature ? feature_offset(m.target) : robot_offset(m.target);
+}
+
+Vec2 CcmlFilter::predicted_measurement(const Measurement& m, const Eigen::VectorXd& x, Block* block) const {
+  const int o = robot_offset(m.observer);
+  const int t = target_offset(m);
+  const Pose2 pose = pose_at(o, x);
+  const Vec2 target = x.segment<2>(t);
+  block->obs_offset = o;
+  block->tgt_offset = t;
+  observe_point_jacobians(pose, target, &block->h_obs, &block->h_tgt);
+  return observe_point(pose, target).vector();
+}
+
+Innovation CcmlFilter::innovation(const Measurement& m) const {
+  Eigen::VectorXd nu;
+  Eigen::MatrixXd S;
+  joint_innovation(std::span<const Measurement>(&m, 1), &nu, &S);
+  Innovation inn;
+  inn.nu = nu;
+  inn.S = S;
+  return inn;
+}
+
+void CcmlFilter::joint_innovation(std::span<const Measurement> ms, Eigen::VectorXd* nu, Eigen::MatrixXd* S) const {
+  const auto m = static_cast<Eigen::Index>(ms.size());
+  nu->resize(2 * m);
+  S->resize(2 * m, 2 * m);
+  std::vector<Block> blocks(ms.size());
+  for (Eigen::Index k = 0; k < m; ++k) {
+    const Vec2 h = predicted_measurement(ms[k], x_, &blocks[k]);
+    (*nu)(2 * k) = ms[k].z.range - h(0);
+    (*nu)(2 * k + 1) = normalize_angle(ms[k].z.bearing - h(1));
+  }
+  // S_kl = H_k P H_lᵀ from the four P blocks that H_k and H_l touch: independent of n.
+  for (Eigen::Index k = 0; k < m; ++k) {
+    for (Eigen::Index l = k; l < m; ++l) {
+      const Block& a = blocks[k];
+      const Block& b = blocks[l];
+      Mat2 s = a.h_obs * P_.block<3, 3>(a.obs_offset, b.obs_offset) * b.h_obs.transpose() +
+               a.h_obs * P_.block<3, 2>(a.obs_offset, b.tgt_offset) * b.h_tgt.transpose() +
+               a.h_tgt * P_.block<2, 3>(a.tgt_offset, b.obs_offset) * b.h_obs.transpose() +
+               a.h_tgt * P_.block<2, 2>(a.tgt_offset, b.tgt_offset) * b.h_tgt.transpose();
+      if (k == l) s += ms[k].R;
+      S->block<2, 2>(2 * k, 2 * l) = s;
+      if (k != l) S->block<2, 2>(2 * l, 2 * k) = s.transpose();
+    }
+  }
+}
+
+UpdateResult CcmlFilter::update(std::span<const Measurement> ms, int iterations, const Seed* seed) {
+  UpdateResult result;
+  if (ms.empty()) return result;
+  const auto n = static_cast<Eigen::Index>(n_);
+  const auto m2 = static_cast<Eigen::Index>(2 * ms.size());
+  const Eigen::VectorXd x_prior = x_.head(n);
+  Eigen::VectorXd x_iter = x_prior;  // linearisation point
+  if (seed) x_iter.segment<3>(robot_offset(seed->robot)) = seed->pose.vector();
+  Eigen::MatrixXd PHt(n, m2), S(m2, m2), K;
+  Eigen::VectorXd nu(m2);
+  std::vector<Block> blocks(ms.size());
+  auto Pn = P_.topLeftCorner(n, n);
+  iterations = std::max(1, iterations);
+  for (int it = 0; it < iterations; ++it) {
+    // Innovation at the linearisation point, corrected for its distance from the prior
+    // (iterated EKF): ν = z − h(x_i) − H (x̂ − x_i).
+    Eigen::VectorXd xi(x_.size());
+    xi.head(n) = x_iter;
+    for (std::size_t k = 0; k < ms.size(); ++k) {
+      const Vec2 h = predicted_measurement(ms[k], xi, &blocks[k]);
+      const Block& b = blocks[k];
+      Vec2 dx_term = b.h_obs * (x_prior.segment<3>(b.obs_offset) - x_iter.segment<3>(b.obs_offset)) +
+                     b.h_tgt * (x_prior.segment<2>(b.tgt_offset) - x_iter.segment<2>(b.tgt_offset));
+      const auto r = static_cast<Eigen::Index>(2 * k);
+      nu(r) = ms[k].z.range - h(0) - dx_term(0);
+      nu(r + 1) = normalize_angle(ms[k].z.bearing - h(1)) - dx_term(1);
+      // P Hᵀ column block: only the observer's and the target's columns of P.
+      PHt.middleCols<2>(r) = Pn.middleCols<3>(b.obs_offset) * b.h_obs.transpose() +
+                             Pn.middleCols<2>(b.tgt_offset) * b.h_tgt.transpose();
+    }
+    for (std::size_t k = 0; k < ms.size(); ++k) {
+      const Block& b = blocks[k];
+      const auto r = static_cast<Eigen::Index>(2 * k);
+      S.middleRows<2>(r) = b.h_obs * PHt.middleRows<3>(b.obs_offset) + b.h_tgt * PHt.middleRows<2>(b.tgt_offset);
+      S.block<2, 2>(r, r) += ms[k].R;
+    }
+    S = 0.5 * (S + S.transpose()).eval();
+    const Eigen::LLT<Eigen::MatrixXd> llt(S);
+    if (llt.info() != Eigen::Success) return result;  // not positive definite: refuse the update
+    K = llt.solve(PHt.transpose()).transpose();
+    // NIS is a statement about the prior: take it from the first linearisation.
+    if (it == 0) result.nis = nu.dot(llt.solve(nu));
+    const Eigen::VectorXd x_next = x_prior + K * nu;
+    const double step = (x_next - x_iter).norm();
+    x_iter = x_next;
+    for (const auto& [id, slot] : robots_) x_iter(slot.offset + 2) = normalize_angle(x_iter(slot.offset + 2));
+    if (step < 1e-9) break;
+  }
+  // Joseph form without H: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − K(PHᵀ)ᵀ − (PHᵀ)Kᵀ + K S Kᵀ.
+  const Eigen::MatrixXd KPHt = K * PHt.transpose();
+  Pn -= KPHt + KPHt.transpose();
+  Pn.noalias() += K * S * K.transpose();
+  Pn = 0.5 * (Pn + Pn.transpose()).eval();
+  x_.head(n) = x_iter;
+  result.applied = true;
+  result.dof = static_cast<int>(m2);
+  return result;
+}
+
+double CcmlFilter::min_eigenvalue() const {
+  if (n_ == 0) return 0.0;
+  const Eigen::MatrixXd P = covariance();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (P + P.transpose()), Eigen::EigenvaluesOnly);
+  return es.eigenvalues().minCoeff();
+}
+
+double CcmlFilter::max_asymmetry() const {
+  if (n_ == 0) return 0.0;
+  const Eigen::MatrixXd P = covariance();
+  return (P - P.transpose()).cwiseAbs().maxCoeff();
+}
+
+}  // namespace cairn::ccml

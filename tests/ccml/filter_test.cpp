@@ -1,0 +1,185 @@
+// The CCML filter against a dense textbook EKF: the blockwise prediction, update
+// (Joseph form without H) and feature augmentation must give the same numbers.
+#include "basestation/ccml/filter.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace cairn::ccml {
+namespace {
+
+Mat2 meas_cov() {
+  Mat2 R = Mat2::Zero();
+  R(0, 0) = 0.04;
+  R(1, 1) = std::pow(2.0 * std::numbers::pi / 180.0, 2);
+  return R;
+}
+
+// A filter with two robots and three features, with non-trivial correlations.
+CcmlFilter make_filter() {
+  CcmlFilter f(4);  // small capacity: exercises growth
+  f.add_robot(1, {0, 0, 0.1}, Vec3(0.05, 0.04, 0.01).asDiagonal());
+  f.add_robot(2, {5, 1, -0.5}, Vec3(0.2, 0.3, 0.02).asDiagonal());
+  f.add_feature(1, {4.0, 0.3}, meas_cov());
+  f.add_feature(2, {3.0, -0.7}, meas_cov());
+  f.add_feature(1, {6.0, 1.1}, meas_cov());
+  f.predict(1, {0.5, 0.02, 0.05}, Vec3(0.01, 0.005, 0.002).asDiagonal());
+  return f;
+}
+
+TEST(CcmlFilter, PredictMatchesDenseJacobianForm) {
+  CcmlFilter f = make_filter();
+  const Eigen::MatrixXd P0 = f.covariance();
+  const Pose2 before = f.robot_pose(2);
+  const Pose2 delta{0.4, -0.1, 0.2};
+  const Mat3 Q = Vec3(0.02, 0.01, 0.003).asDiagonal();
+  f.predict(2, delta, Q);
+  const int o = f.robot_offset(2);
+  const auto n = static_cast<Eigen::Index>(f.dimension());
+  Eigen::MatrixXd F = Eigen::MatrixXd::Identity(n, n);
+  Mat3 Fr, G;
+  compose_jacobians(before, delta, &Fr, &G);
+  F.block<3, 3>(o, o) = Fr;
+  Eigen::MatrixXd Gf = Eigen::MatrixXd::Zero(n, 3);
+  Gf.middleRows<3>(o) = G;
+  const Eigen::MatrixXd expected = F * P0 * F.transpose() + Gf * Q * Gf.transpose();
+  EXPECT_TRUE(f.covariance().isApprox(expected, 1e-12));
+  const Pose2 after = f.robot_pose(2), want = compose(before, delta);
+  EXPECT_NEAR(after.x, want.x, 1e-12);
+  EXPECT_NEAR(after.theta, want.theta, 1e-12);
+}
+
+TEST(CcmlFilter, UpdateMatchesDenseJosephEkf) {
+  CcmlFilter f = make_filter();
+  const Eigen::VectorXd x0 = f.mean();
+  const Eigen::MatrixXd P0 = f.covariance();
+  const auto n = static_cast<Eigen::Index>(f.dimension());
+  const auto fids = f.feature_ids();
+  std::vector<Measurement> ms = {
+      {1, Measurement::Target::kFeature, fids[0], {4.1, 0.28}, meas_cov()},
+      {2, Measurement::Target::kFeature, fids[2], {1.3, 0.9}, meas_cov()},
+      {1, Measurement::Target::kRobot, 2, {5.0, 0.15}, meas_cov()},
+  };
+  // Dense reference: H (2m x n), S, K, Joseph.
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(6, n);
+  Eigen::VectorXd nu(6);
+  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(6, 6);
+  for (int k = 0; k < 3; ++k) {
+    const int o = f.robot_offset(ms[k].observer);
+    const int t = ms[k].target_kind == Measurement::Target::kFeature ? f.feature_offset(ms[k].target) : f.robot_offset(ms[k].target);
+    const Pose2 pose{x0(o), x0(o + 1), x0(o + 2)};
+    const Vec2 p = x0.segment<2>(t);
+    Mat23 ho;
+    Mat2 ht;
+    observe_point_jacobians(pose, p, &ho, &ht);
+    H.block<2, 3>(2 * k, o) = ho;
+    H.block<2, 2>(2 * k, t) += ht;
+    const RangeBearing h = observe_point(pose, p);
+    nu(2 * k) = ms[k].z.range - h.range;
+    nu(2 * k + 1) = normalize_angle(ms[k].z.bearing - h.bearing);
+    R.block<2, 2>(2 * k, 2 * k) = ms[k].R;
+  }
+  const Eigen::MatrixXd S = H * P0 * H.transpose() + R;
+  const Eigen::MatrixXd K = P0 * H.transpose() * S.inverse();
+  const Eigen::MatrixXd IKH = Eigen::MatrixXd::Identity(n, n) - K * H;
+  const Eigen::MatrixXd P_expected = IKH * P0 * IKH.transpose() + K * R * K.transpose();
+  Eigen::VectorXd x_expected = x0 + K * nu;
+
+  Eigen::VectorXd nu_joint;
+  Eigen::MatrixXd S_joint;
+  f.joint_innovation(ms, &nu_joint, &S_joint);
+  EXPECT_TRUE(S_joint.isApprox(S, 1e-10));
+  EXPECT_TRUE(nu_joint.isApprox(nu, 1e-10));
+
+  const UpdateResult u = f.update(ms);
+  ASSERT_TRUE(u.applied);
+  EXPECT_EQ(u.dof, 6);
+  EXPECT_NEAR(u.nis, nu.dot(S.inverse() * nu), 1e-8);
+  EXPECT_TRUE(f.covariance().isApprox(P_expected, 1e-9));
+  for (int r : {f.robot_offset(1), f.robot_offset(2)}) x_expected(r + 2) = normalize_angle(x_expected(r + 2));
+  EXPECT_TRUE(f.mean().isApprox(x_expected, 1e-10));
+  EXPECT_LT(f.max_asymmetry(), 1e-15);
+  EXPECT_GT(f.min_eigenvalue(), 0.0);
+}
+
+TEST(CcmlFilter, FeatureAugmentationMatchesDense) {
+  CcmlFilter f = make_filter();
+  const Eigen::MatrixXd P0 = f.covariance();
+  const Pose2 pose = f.robot_pose(2);
+  const int o = f.robot_offset(2);
+  const RangeBearing z{2.5, 0.4};
+  const FeatureId id = f.add_feature(2, z, meas_cov());
+  const auto n0 = P0.rows();
+  Mat23 gp;
+  Mat2 gz;
+  point_from_observation_jacobians(pose, z, &gp, &gz);
+  Eigen::MatrixXd Gx = Eigen::MatrixXd::Zero(2, n0);
+  Gx.middleCols<3>(o) = gp;
+  const Eigen::MatrixXd cross = Gx * P0;
+  const int fo = f.feature_offset(id);
+  EXPECT_EQ(fo, n0);
+  EXPECT_TRUE(f.covariance().block(fo, 0, 2, n0).isApprox(cross, 1e-12));
+  EXPECT_TRUE(f.feature_cov(id).isApprox(Gx * P0 * Gx.transpose() + gz * meas_cov() * gz.transpose(), 1e-12));
+  EXPECT_TRUE(f.feature(id).isApprox(point_from_observation(pose, z), 1e-12));
+}
+
+TEST(CcmlFilter, RemovingARobotMarginalisesIt) {
+  CcmlFilter f = make_filter();
+  const Eigen::MatrixXd P0 = f.covariance();
+  const int o = f.robot_offset(1);
+  const auto fids = f.feature_ids();
+  const Mat2 f2_before = f.feature_cov(fids[1]);
+  f.remove_robot(1);
+  EXPECT_FALSE(f.has_robot(1));
+  EXPECT_EQ(f.dimension(), static_cast<std::size_t>(P0.rows() - 3));
+  EXPECT_TRUE(f.feature_cov(fids[1]).isApprox(f2_before, 1e-15));
+  EXPECT_EQ(f.robot_offset(2), o);  // robot 2 moved into robot 1's slot
+  EXPECT_THROW(f.robot_pose(1), std::out_of_range);
+}
+
+TEST(CcmlFilter, StaysSymmetricPositiveDefiniteOverManyRandomSteps) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> g(0, 1);
+  CcmlFilter f;
+  f.add_robot(1, {0, 0, 0}, Vec3(0.01, 0.01, 0.001).asDiagonal());
+  std::vector<Vec2> landmarks;
+  for (int i = 0; i < 30; ++i) landmarks.emplace_back(g(rng) * 10, g(rng) * 10);
+  std::vector<FeatureId> ids(landmarks.size(), 0);
+  Pose2 truth{0, 0, 0};
+  for (int step = 0; step < 400; ++step) {
+    const Pose2 d{0.2, 0, 0.05 * g(rng)};
+    truth = compose(truth, d);
+    f.predict(1, d, Vec3(1e-4, 1e-4, 1e-5).asDiagonal());
+    std::vector<Measurement> ms;
+    for (std::size_t i = 0; i < landmarks.size(); ++i) {
+      RangeBearing z = observe_point(truth, landmarks[i]);
+      if (z.range > 8 || z.range < 0.3) continue;
+      z.range += 0.05 * g(rng);
+      z.bearing += 0.01 * g(rng);
+      Mat2 R = Vec2(0.0025, 1e-4).asDiagonal();
+      if (!ids[i]) {
+        ids[i] = f.add_feature(1, z, R);
+      } else {
+        ms.push_back({1, Measurement::Target::kFeature, ids[i], z, R});
+      }
+    }
+    f.update(ms);
+  }
+  EXPECT_LT(f.max_asymmetry(), 1e-12);
+  EXPECT_GT(f.min_eigenvalue(), 0.0);
+  const Pose2 est = f.robot_pose(1);
+  EXPECT_LT(std::hypot(est.x - truth.x, est.y - truth.y), 1.0);
+}
+
+TEST(CcmlFilter, RejectsDuplicatesAndUnknowns) {
+  CcmlFilter f;
+  f.add_robot(1, {}, Mat3::Identity());
+  EXPECT_THROW(f.add_robot(1, {}, Mat3::Identity()), std::invalid_argument);
+  EXPECT_THROW(f.predict(9, {}, Mat3::Identity()), std::out_of_range);
+  EXPECT_THROW(f.feature(3), std::out_of_range);
+  EXPECT_FALSE(f.update({}).applied);
+}
+
+}  // namespace
+}  // namespace cairn::ccml
