@@ -90,6 +90,11 @@ PaperRun run_paper_simulation(const PaperScenario& s) {
   std::vector<Mat2> initial_infos = {};
   for (int v = 0; v < s.vehicles; ++v) initial_infos.push_back(position_block(P0));
 
+  {
+    PaperSample s0;
+    s0.det_vehicle_a = position_block(f.robot_cov(0)).determinant();
+    run.samples.push_back(s0);
+  }
   const int steps = static_cast<int>(std::lround(s.duration / s.dt));
   bool third_joined = false;
   for (int k = 1; k <= steps; ++k) {

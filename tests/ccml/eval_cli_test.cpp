@@ -1,0 +1,42 @@
+// cairn-eval ccml-paper and vehicles-needed, run as a user would.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "tests/support/subprocess.hpp"
+
+namespace cairn {
+namespace {
+
+using namespace std::chrono_literals;
+
+TEST(CairnEval, CcmlPaperWritesFiguresAndSummary) {
+  const auto dir = std::filesystem::temp_directory_path() / ("cairn-eval-test-" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  testing::Subprocess p({CAIRN_EVAL_BIN, "ccml-paper", "--scenario", "1", "--out", dir.string(), "--json"});
+  ASSERT_EQ(p.wait(120s), 0) << p.output();
+  for (const char* f : {"det_vehicle_a.png", "det_feature_1.png", "ellipses.png"}) {
+    ASSERT_TRUE(std::filesystem::exists(dir / f)) << f;
+    EXPECT_GT(std::filesystem::file_size(dir / f), 2000u) << f;
+  }
+  const auto j = nlohmann::json::parse(std::ifstream(dir / "summary.json"));
+  EXPECT_NEAR(j["cooperative"]["final_over_bound"].get<double>(), 1.0, 0.05);
+  EXPECT_NEAR(j["single_vehicle"]["det_vehicle_a_final"].get<double>(), 0.0016, 1e-6);
+  EXPECT_TRUE(j["figures_rendered"].get<bool>());
+  std::filesystem::remove_all(dir);
+}
+
+TEST(CairnEval, VehiclesNeededAndBadArguments) {
+  testing::Subprocess p({CAIRN_EVAL_BIN, "vehicles-needed", "--initial-sigma", "0.2", "--desired-sigma", "0.1", "--json"});
+  ASSERT_EQ(p.wait(10s), 0);
+  const auto j = nlohmann::json::parse(p.output());
+  EXPECT_EQ(j["vehicles"].get<int>(), 4);
+  testing::Subprocess bad({CAIRN_EVAL_BIN, "ccml-paper", "--scenario", "3"});
+  EXPECT_NE(bad.wait(10s), 0);
+  EXPECT_NE(bad.output().find("scenario"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace cairn

@@ -1,0 +1,19 @@
+// cairn-eval's subcommands.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace cairn::eval {
+
+struct CcmlPaperOptions {
+  int scenario = 1;
+  std::string out_dir = "ccml-paper";
+  std::uint64_t seed = 1;
+  int iterations = 1;
+  bool json = false;
+};
+int ccml_paper(const CcmlPaperOptions& o);
+int vehicles_needed_cmd(double initial_sigma, double desired_sigma, bool as_json);
+
+}  // namespace cairn::eval

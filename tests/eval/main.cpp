@@ -1,0 +1,40 @@
+// cairn-eval: Cairn's evaluations on simulated and real data.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <exception>
+
+#include "tests/eval/commands.hpp"
+
+int main(int argc, char** argv) {
+  using namespace cairn::eval;
+  CLI::App app{"cairn-eval: evaluates Cairn's estimators on the papers' simulations and on real datasets."};
+  app.require_subcommand(1);
+
+  CcmlPaperOptions paper;
+  auto* cp = app.add_subcommand("ccml-paper",
+                                "Reproduce the cooperative-CML paper (Fenwick, Newman, Leonard): its figures as PNG and a "
+                                "JSON summary");
+  cp->add_option("--scenario", paper.scenario, "1 (no process noise) or 2 (process noise)")->check(CLI::IsMember({1, 2}));
+  cp->add_option("--out", paper.out_dir, "output directory for the figures and summary.json");
+  cp->add_option("--seed", paper.seed, "random seed");
+  cp->add_option("--iterations", paper.iterations, "EKF update iterations (1 = EKF, >1 = iterated EKF)")
+      ->check(CLI::Range(1, 50));
+  cp->add_flag("--json", paper.json, "print the summary as JSON");
+
+  double initial = 0.2, desired = 0.1;
+  bool vn_json = false;
+  auto* vn = app.add_subcommand("vehicles-needed", "Eq. 10/11: how many vehicles reach a desired map accuracy");
+  vn->add_option("--initial-sigma", initial, "initial vehicle position std (m)")->check(CLI::PositiveNumber);
+  vn->add_option("--desired-sigma", desired, "desired map position std (m)")->check(CLI::PositiveNumber);
+  vn->add_flag("--json", vn_json, "print JSON");
+
+  CLI11_PARSE(app, argc, argv);
+  try {
+    if (*cp) return ccml_paper(paper);
+    if (*vn) return vehicles_needed_cmd(initial, desired, vn_json);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "cairn-eval: error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
