@@ -16,4 +16,13 @@ struct CcmlPaperOptions {
 int ccml_paper(const CcmlPaperOptions& o);
 int vehicles_needed_cmd(double initial_sigma, double desired_sigma, bool as_json);
 
+struct MrclamCmdOptions {
+  std::string dir;
+  std::string association = "both";  // labels | jcbb | both
+  double duration = 0;
+  int iterations = 1;
+  bool json = false;
+};
+int mrclam(const MrclamCmdOptions& o);
+
 }  // namespace cairn::eval

@@ -28,10 +28,21 @@ int main(int argc, char** argv) {
   vn->add_option("--desired-sigma", desired, "desired map position std (m)")->check(CLI::PositiveNumber);
   vn->add_flag("--json", vn_json, "print JSON");
 
+  MrclamCmdOptions mr;
+  auto* mc = app.add_subcommand("mrclam",
+                                "UTIAS MRCLAM dataset: dead reckoning, single-robot EKF-SLAM and cooperative CML vs ground truth");
+  mc->add_option("dir", mr.dir, "dataset directory (e.g. ../shared/datasets/mrclam/MRCLAM_Dataset6)")->required()->check(CLI::ExistingDirectory);
+  mc->add_option("--association", mr.association, "landmark data association: labels, jcbb or both")
+      ->check(CLI::IsMember({"labels", "jcbb", "both"}));
+  mc->add_option("--duration", mr.duration, "use only the first S seconds (0 = all)")->check(CLI::NonNegativeNumber);
+  mc->add_option("--iterations", mr.iterations, "EKF update iterations (1 = EKF)")->check(CLI::Range(1, 50));
+  mc->add_flag("--json", mr.json, "print JSON");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*cp) return ccml_paper(paper);
     if (*vn) return vehicles_needed_cmd(initial, desired, vn_json);
+    if (*mc) return mrclam(mr);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "cairn-eval: error: %s\n", e.what());
     return 1;
