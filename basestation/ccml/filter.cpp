@@ -1,6 +1,8 @@
 #include "basestation/ccml/filter.hpp"
 
 #include <algorithm>
+#include <istream>
+#include <ostream>
 #include <stdexcept>
 #include <string>
 
@@ -232,8 +234,9 @@ UpdateResult CcmlFilter::update(std::span<const Measurement> ms, int iterations,
     for (std::size_t k = 0; k < ms.size(); ++k) {
       const Vec2 h = predicted_measurement(ms[k], xi, &blocks[k]);
       const Block& b = blocks[k];
-      Vec2 dx_term = b.h_obs * (x_prior.segment<3>(b.obs_offset) - x_iter.segment<3>(b.obs_offset)) +
-                     b.h_tgt * (x_prior.segment<2>(b.tgt_offset) - x_iter.segment<2>(b.tgt_offset));
+      Vec3 d_obs = x_prior.segment<3>(b.obs_offset) - x_iter.segment<3>(b.obs_offset);
+      d_obs(2) = normalize_angle(d_obs(2));  // iterates may sit on either side of ±π
+      const Vec2 dx_term = b.h_obs * d_obs + b.h_tgt * (x_prior.segment<2>(b.tgt_offset) - x_iter.segment<2>(b.tgt_offset));
       const auto r = static_cast<Eigen::Index>(2 * k);
       nu(r) = ms[k].z.range - h(0) - dx_term(0);
       nu(r + 1) = normalize_angle(ms[k].z.bearing - h(1)) - dx_term(1);
@@ -254,7 +257,9 @@ UpdateResult CcmlFilter::update(std::span<const Measurement> ms, int iterations,
     // NIS is a statement about the prior: take it from the first linearisation.
     if (it == 0) result.nis = nu.dot(llt.solve(nu));
     const Eigen::VectorXd x_next = x_prior + K * nu;
-    const double step = (x_next - x_iter).norm();
+    Eigen::VectorXd diff = x_next - x_iter;
+    for (const auto& [id, slot] : robots_) diff(slot.offset + 2) = normalize_angle(diff(slot.offset + 2));
+    const double step = diff.norm();
     x_iter = x_next;
     for (const auto& [id, slot] : robots_) x_iter(slot.offset + 2) = normalize_angle(x_iter(slot.offset + 2));
     if (step < 1e-9) break;
@@ -268,6 +273,71 @@ UpdateResult CcmlFilter::update(std::span<const Measurement> ms, int iterations,
   result.applied = true;
   result.dof = static_cast<int>(m2);
   return result;
+}
+
+namespace {
+constexpr std::uint32_t kSnapshotMagic = 0x4C4D4343;  // "CCML"
+constexpr std::uint32_t kSnapshotVersion = 1;
+template <typename T>
+void put(std::ostream& o, const T& v) {
+  o.write(reinterpret_cast<const char*>(&v), sizeof v);
+}
+template <typename T>
+T get(std::istream& i) {
+  T v{};
+  if (!i.read(reinterpret_cast<char*>(&v), sizeof v)) throw std::runtime_error("ccml snapshot: truncated");
+  return v;
+}
+}  // namespace
+
+void CcmlFilter::save(std::ostream& out) const {
+  put(out, kSnapshotMagic);
+  put(out, kSnapshotVersion);
+  put(out, static_cast<std::uint64_t>(n_));
+  put(out, next_feature_);
+  for (const auto* map : {&robots_, &features_}) {
+    put(out, static_cast<std::uint64_t>(map->size()));
+    for (const auto& [id, slot] : *map) {
+      put(out, id);
+      put(out, static_cast<std::int32_t>(slot.offset));
+      put(out, static_cast<std::int32_t>(slot.dim));
+    }
+  }
+  const auto n = static_cast<Eigen::Index>(n_);
+  out.write(reinterpret_cast<const char*>(x_.data()), static_cast<std::streamsize>(sizeof(double) * n_));
+  for (Eigen::Index c = 0; c < n; ++c) {
+    out.write(reinterpret_cast<const char*>(P_.col(c).data()), static_cast<std::streamsize>(sizeof(double) * n_));
+  }
+}
+
+CcmlFilter CcmlFilter::load(std::istream& in) {
+  if (get<std::uint32_t>(in) != kSnapshotMagic) throw std::runtime_error("ccml snapshot: not a CCML snapshot");
+  if (get<std::uint32_t>(in) != kSnapshotVersion) throw std::runtime_error("ccml snapshot: unsupported version");
+  const auto n = get<std::uint64_t>(in);
+  if (n > 1'000'000) throw std::runtime_error("ccml snapshot: implausible state size");
+  CcmlFilter f(std::max<std::size_t>(n, 8));
+  f.n_ = n;
+  f.next_feature_ = get<FeatureId>(in);
+  for (auto* map : {&f.robots_, &f.features_}) {
+    const auto count = get<std::uint64_t>(in);
+    for (std::uint64_t k = 0; k < count; ++k) {
+      const auto id = get<std::uint32_t>(in);
+      const auto off = get<std::int32_t>(in);
+      const auto dim = get<std::int32_t>(in);
+      if (off < 0 || dim <= 0 || static_cast<std::uint64_t>(off + dim) > n) throw std::runtime_error("ccml snapshot: bad slot");
+      (*map)[id] = {off, dim};
+    }
+  }
+  const auto ni = static_cast<Eigen::Index>(n);
+  if (!in.read(reinterpret_cast<char*>(f.x_.data()), static_cast<std::streamsize>(sizeof(double) * n))) {
+    throw std::runtime_error("ccml snapshot: truncated");
+  }
+  for (Eigen::Index c = 0; c < ni; ++c) {
+    if (!in.read(reinterpret_cast<char*>(f.P_.col(c).data()), static_cast<std::streamsize>(sizeof(double) * n))) {
+      throw std::runtime_error("ccml snapshot: truncated");
+    }
+  }
+  return f;
 }
 
 double CcmlFilter::min_eigenvalue() const {

@@ -12,6 +12,7 @@
 
 #include <Eigen/Dense>
 #include <cstdint>
+#include <iosfwd>
 #include <span>
 #include <unordered_map>
 #include <vector>
@@ -98,6 +99,10 @@ class CcmlFilter {
   /// Offset of a robot / feature in the state vector (for tests and analysis).
   int robot_offset(RobotId id) const;
   int feature_offset(FeatureId id) const;
+  /// Binary snapshot of the whole estimator (state, covariance, ids); load() restores it exactly.
+  void save(std::ostream& out) const;
+  static CcmlFilter load(std::istream& in);
+
   /// Smallest eigenvalue of the symmetric part of P and the largest asymmetry (health checks).
   double min_eigenvalue() const;
   double max_asymmetry() const;

@@ -1,0 +1,95 @@
+// The base station's fusion: every robot's OdometryIncrement and FeatureObservations
+// into one cooperative-CML estimator; PoseCorrection per robot and the FeatureMap out.
+// Pure logic on the topic structs (no DDS, no clock), deterministic for a given message
+// order, so the state store can rebuild it exactly from a snapshot and a log.
+//
+// Ordering rules: odometry is applied in seq order per robot (duplicates skipped; a gap
+// is bridged with the robot's reported local poses, its covariance scaled by the gap).
+// Features wait (bounded) until the odometry they refer to (odom_seq) has been applied;
+// features older than the applied odometry are stale and counted, not applied.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <iosfwd>
+#include <map>
+#include <optional>
+
+#include "basestation/ccml/filter.hpp"
+#include "basestation/ccml/jcbb.hpp"
+#include "cairn.h"
+#include "common/clock.hpp"
+
+namespace cairn::base {
+
+struct RobotPrior {
+  bool known = false;  // false: pose unknown, joins by relocation against the map
+  Pose2 pose;          // global pose of the robot's local origin
+  Vec3 sigma = Vec3(100, 100, 3.0);
+};
+
+struct FusionConfig {
+  std::map<std::uint16_t, RobotPrior> robots;  // per-robot priors from the configuration
+  RobotPrior unknown;                          // for robots not listed
+  int iterations = 1;                          // EKF update iterations
+  std::size_t max_pending = 64;                // feature messages waiting for their odometry, per robot
+  double candidate_range = 15.0;               // JCBB candidates within this distance (m)
+  /// An unpaired observation starts a new feature only if no existing feature explains it
+  /// even at this confidence (far stricter than the pairing gate: duplicates are costly).
+  double new_feature_confidence = 0.999999;
+  ccml::JcbbConfig jcbb;
+};
+
+struct FusionCounters {
+  std::uint64_t odometry_applied = 0, odometry_duplicates = 0, odometry_gaps = 0;
+  std::uint64_t feature_messages_applied = 0, feature_duplicates = 0, feature_stale = 0, pending_overflow = 0;
+  std::uint64_t observations_used = 0, observations_new_features = 0, observations_rejected = 0;
+  std::uint64_t robots_joined = 0, robots_localized = 0, invalid_messages = 0;
+};
+
+class Fusion {
+ public:
+  enum class Result { kApplied, kDuplicate, kBuffered, kRejected };
+
+  explicit Fusion(FusionConfig config);
+
+  Result on_odometry(const cairn_OdometryIncrement& m);
+  Result on_features(const cairn_FeatureObservations& m);
+
+  /// The correction for one robot; false if the robot is unknown or not yet localised.
+  bool correction(std::uint16_t robot, Nanos stamp, cairn_PoseCorrection* out) const;
+  std::vector<std::uint16_t> robots() const;
+  void feature_map(Nanos stamp, cairn_FeatureMap* out) const;
+  const ccml::CcmlFilter& filter() const { return filter_; }
+  const FusionCounters& counters() const { return counters_; }
+  bool localized(std::uint16_t robot) const;
+
+  /// Exact binary snapshot (estimator, per-robot bookkeeping, waiting messages, counters).
+  void save(std::ostream& out) const;
+  void load(std::istream& in);
+
+ private:
+  struct Track {
+    bool joined = false;  // in the estimator (on its first odometry)
+    bool have_odometry = false;
+    std::uint32_t odom_seq = 0;
+    Pose2 local;  // robot's local pose at odom_seq
+    bool have_features = false;
+    std::uint32_t feature_seq = 0;
+    bool localized = false;
+    std::deque<cairn_FeatureObservations> pending;
+  };
+
+  Track& join(std::uint16_t robot, const Pose2& local_now);
+  void apply_features(const cairn_FeatureObservations& m, Track& t);
+  void drain_pending(std::uint16_t robot, Track& t);
+  static bool valid(const cairn_OdometryIncrement& m);
+  static bool valid(const cairn_FeatureObservations& m);
+
+  FusionConfig config_;
+  ccml::CcmlFilter filter_;
+  std::map<std::uint16_t, Track> tracks_;
+  FusionCounters counters_;
+};
+
+}  // namespace cairn::base

@@ -1,0 +1,193 @@
+// The base station's fusion on a fleet message stream, its robustness to bad, late,
+// duplicate and missing messages, and crash-safe persistence (snapshot + log replay).
+#include "basestation/fusion.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <sstream>
+
+#include "basestation/state_store.hpp"
+#include "common/dds/topics.hpp"
+#include "tests/support/fleet_scenario.hpp"
+
+namespace cairn::base {
+namespace {
+
+using testing::FleetScenario;
+
+FusionConfig config_for(const FleetScenario& s, bool know_all = true) {
+  FusionConfig c;
+  for (std::size_t r = 0; r < s.starts.size(); ++r) {
+    if (!know_all && r > 0) continue;
+    RobotPrior p;
+    p.known = true;
+    p.pose = s.starts[r];
+    p.sigma = Vec3(0.05, 0.05, 0.01);
+    c.robots[static_cast<std::uint16_t>(r + 1)] = p;
+  }
+  return c;
+}
+
+void feed(Fusion* f, const testing::FleetMessage& m) {
+  std::visit([&](const auto& msg) {
+    if constexpr (std::is_same_v<std::decay_t<decltype(msg)>, cairn_OdometryIncrement>) {
+      f->on_odometry(msg);
+    } else {
+      f->on_features(msg);
+    }
+  }, m);
+}
+
+double position_error(const Fusion& f, const FleetScenario& s, int r) {
+  const Pose2 est = f.filter().robot_pose(static_cast<ccml::RobotId>(r + 1));
+  return std::hypot(est.x - s.truth_end[r].x, est.y - s.truth_end[r].y);
+}
+
+TEST(Fusion, ThreeRobotsStayLocalisedAndMapThePoles) {
+  const FleetScenario s = testing::make_fleet_scenario(3, 600);
+  Fusion f(config_for(s));
+  for (const auto& m : s.messages) feed(&f, m);
+  for (int r = 0; r < 3; ++r) EXPECT_LT(position_error(f, s, r), 0.15) << "robot " << r + 1;
+  EXPECT_GE(f.filter().feature_count(), 8u);
+  EXPECT_LE(f.filter().feature_count(), 10u);  // no duplicates of the 10 poles
+  for (ccml::FeatureId id : f.filter().feature_ids()) {
+    double best = 1e9;
+    for (const Vec2& p : s.poles) best = std::min(best, (f.filter().feature(id) - p).norm());
+    EXPECT_LT(best, 0.2) << "feature " << id;
+  }
+  EXPECT_GT(f.counters().observations_used, 1000u);
+  cairn_PoseCorrection c;
+  ASSERT_TRUE(f.correction(2, 123, &c));
+  EXPECT_EQ(c.robot_id, 2);
+  EXPECT_NEAR(c.global_pose.x, f.filter().robot_pose(2).x, 1e-12);
+  cairn_FeatureMap map;
+  f.feature_map(5, &map);
+  EXPECT_EQ(map.n_landmarks, f.filter().feature_count());
+}
+
+TEST(Fusion, RobotWithUnknownStartIsLocalisedByRelocation) {
+  const FleetScenario s = testing::make_fleet_scenario(2, 600);
+  Fusion f(config_for(s, /*know_all=*/false));  // robot 2 has no prior
+  std::size_t k = 0;
+  for (; k < s.messages.size() / 3; ++k) {  // robot 1 maps alone first
+    if (std::visit([](const auto& m) { return m.robot_id; }, s.messages[k]) == 1) feed(&f, s.messages[k]);
+  }
+  EXPECT_FALSE(f.localized(2));
+  for (; k < s.messages.size(); ++k) feed(&f, s.messages[k]);
+  ASSERT_TRUE(f.localized(2));
+  EXPECT_LT(position_error(f, s, 1), 0.3);
+}
+
+TEST(Fusion, BadDuplicateLateAndMissingMessagesAreCountedNotFatal) {
+  const FleetScenario s = testing::make_fleet_scenario(1, 200);
+  Fusion f(config_for(s));
+  std::vector<cairn_OdometryIncrement> odo;
+  std::vector<cairn_FeatureObservations> feats;
+  for (const auto& m : s.messages) {
+    if (auto* o = std::get_if<cairn_OdometryIncrement>(&m)) odo.push_back(*o);
+    if (auto* ft = std::get_if<cairn_FeatureObservations>(&m)) feats.push_back(*ft);
+  }
+  // Features before their odometry wait; then the odometry releases them.
+  EXPECT_EQ(f.on_features(feats[0]), Fusion::Result::kBuffered);
+  EXPECT_EQ(f.on_odometry(odo[0]), Fusion::Result::kApplied);
+  EXPECT_EQ(f.counters().feature_messages_applied, 1u);
+  EXPECT_EQ(f.on_features(feats[0]), Fusion::Result::kDuplicate);
+  // NaN and a broken covariance are rejected.
+  cairn_OdometryIncrement bad = odo[1];
+  bad.delta.x = std::nan("");
+  EXPECT_EQ(f.on_odometry(bad), Fusion::Result::kRejected);
+  cairn_FeatureObservations badf = feats[1];
+  badf.features[0].cov[0] = -1;
+  EXPECT_EQ(f.on_features(badf), Fusion::Result::kRejected);
+  badf = feats[1];
+  badf.n_features = 200;
+  EXPECT_EQ(f.on_features(badf), Fusion::Result::kRejected);
+  EXPECT_EQ(f.counters().invalid_messages, 3u);
+  // A gap in odometry is bridged with the local poses.
+  EXPECT_EQ(f.on_odometry(odo[1]), Fusion::Result::kApplied);
+  EXPECT_EQ(f.on_odometry(odo[5]), Fusion::Result::kApplied);
+  EXPECT_EQ(f.counters().odometry_gaps, 1u);
+  EXPECT_EQ(f.on_odometry(odo[3]), Fusion::Result::kDuplicate);
+  // Features older than the applied odometry are stale.
+  EXPECT_EQ(f.on_features(feats[1]), Fusion::Result::kRejected);
+  EXPECT_EQ(f.counters().feature_stale, 1u);
+  const Pose2 est = f.filter().robot_pose(1);
+  const Pose2 want = compose(s.starts[0], dds::from_msg(odo[5].local_pose));
+  EXPECT_NEAR(est.x, want.x, 0.1);
+}
+
+TEST(Fusion, SnapshotRestoresTheExactState) {
+  const FleetScenario s = testing::make_fleet_scenario(2, 300);
+  Fusion a(config_for(s)), b(config_for(s));
+  const std::size_t half = s.messages.size() / 2;
+  for (std::size_t k = 0; k < half; ++k) feed(&a, s.messages[k]);
+  std::stringstream snap;
+  a.save(snap);
+  b.load(snap);
+  for (std::size_t k = half; k < s.messages.size(); ++k) {
+    feed(&a, s.messages[k]);
+    feed(&b, s.messages[k]);
+  }
+  EXPECT_EQ(a.filter().mean(), b.filter().mean());
+  EXPECT_EQ(a.filter().covariance(), b.filter().covariance());
+}
+
+TEST(StateStore, CrashAndRestoreLosesNothing) {
+  const FleetScenario s = testing::make_fleet_scenario(2, 300);
+  const auto dir = std::filesystem::temp_directory_path() / ("cairn-store-" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  Fusion reference(config_for(s));
+  for (const auto& m : s.messages) feed(&reference, m);
+
+  const std::size_t crash_at = s.messages.size() * 2 / 3;
+  {
+    Fusion f(config_for(s));
+    StateStore store(dir.string(), 1000 * kNanosPerSecond);
+    store.restore(&f);
+    for (std::size_t k = 0; k < crash_at; ++k) {
+      std::visit([&](const auto& m) { store.append(m, static_cast<Nanos>(k)); }, s.messages[k]);
+      feed(&f, s.messages[k]);
+      if (k == crash_at / 2) store.maybe_snapshot(f, static_cast<Nanos>(k), true);
+    }
+  }  // "killed": no final snapshot
+  Fusion f(config_for(s));
+  StateStore store(dir.string(), 1000 * kNanosPerSecond);
+  const RestoreReport rep = store.restore(&f);
+  EXPECT_TRUE(rep.snapshot_loaded);
+  EXPECT_EQ(rep.torn_records, 0u);
+  EXPECT_GT(rep.replayed_odometry + rep.replayed_features, 0u);
+  for (std::size_t k = crash_at; k < s.messages.size(); ++k) feed(&f, s.messages[k]);
+  EXPECT_EQ(f.filter().mean(), reference.filter().mean());
+  EXPECT_EQ(f.filter().covariance(), reference.filter().covariance());
+  std::filesystem::remove_all(dir);
+}
+
+TEST(StateStore, TornLastRecordIsDetectedAndIgnored) {
+  const FleetScenario s = testing::make_fleet_scenario(1, 50);
+  const auto dir = std::filesystem::temp_directory_path() / ("cairn-torn-" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  Fusion expect(config_for(s));
+  std::uint64_t gen = 0;
+  {
+    Fusion f(config_for(s));
+    StateStore store(dir.string(), 1000 * kNanosPerSecond);
+    store.restore(&f);
+    gen = store.generation();
+    for (std::size_t k = 0; k < 20; ++k) {
+      std::visit([&](const auto& m) { store.append(m, 0); }, s.messages[k]);
+      if (k < 19) feed(&expect, s.messages[k]);
+    }
+  }
+  const auto log = dir / ("log-" + std::to_string(gen) + ".bin");
+  std::filesystem::resize_file(log, std::filesystem::file_size(log) - 7);  // killed mid-write
+  Fusion f(config_for(s));
+  StateStore store(dir.string(), 1000 * kNanosPerSecond);
+  const RestoreReport rep = store.restore(&f);
+  EXPECT_EQ(rep.torn_records, 1u);
+  EXPECT_EQ(f.filter().mean(), expect.filter().mean());
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace cairn::base
