@@ -14,6 +14,39 @@ BaseConfig load_base_config(const std::string& path) {
     c.stale_after = seconds_to_nanos(f->number_or("stale_after_s", 3.0, {0.1, 3600.0}));
     c.table_period = seconds_to_nanos(f->number_or("table_period_s", 1.0, {0.1, 3600.0}));
   }
+  if (const auto f = root.optional_section("fusion")) {
+    c.fusion_enabled = f->boolean_or("enabled", true);
+    c.state_dir = f->string_or("state_dir", c.state_dir);
+    c.snapshot_period = seconds_to_nanos(f->number_or("snapshot_period_s", 30.0, {0.1, 86400.0}));
+    c.correction_period = seconds_to_nanos(f->number_or("correction_period_s", 0.2, {0.01, 60.0}));
+    c.map_period = seconds_to_nanos(f->number_or("map_period_s", 1.0, {0.05, 600.0}));
+    c.history_depth = static_cast<int>(f->integer_or("history_depth", 512, {1, 100000}));
+    c.fusion.iterations = static_cast<int>(f->integer_or("update_iterations", 1, {1, 50}));
+    c.fusion.candidate_range = f->number_or("candidate_range_m", 15.0, {0.5, 1000.0});
+  }
+  auto read_sigma = [](const ConfigSection& s, const char* key, Vec3 fallback) {
+    if (!s.has(key)) return fallback;
+    const auto v = s.numbers(key, 3, 3);
+    for (double x : v) {
+      if (x <= 0) s.fail(key, "expected three positive standard deviations [x m, y m, theta rad]");
+    }
+    return Vec3(v[0], v[1], v[2]);
+  };
+  if (root.has("robot")) {
+    for (const ConfigSection& r : root.sections("robot")) {
+      const auto id = static_cast<std::uint16_t>(r.integer("id", {1, 250}));
+      RobotPrior p;
+      p.known = r.has("initial_pose");
+      if (p.known) {
+        const auto v = r.numbers("initial_pose", 3, 3);
+        p.pose = {v[0], v[1], v[2]};
+      }
+      p.sigma = read_sigma(r, "initial_sigma", p.known ? Vec3(0.05, 0.05, 0.02) : Vec3(100, 100, 3.0));
+      if (c.fusion.robots.count(id)) r.fail("id", "robot " + std::to_string(id) + " is listed twice");
+      c.fusion.robots[id] = p;
+    }
+  }
+  if (const auto u = root.optional_section("unknown_robot")) c.fusion.unknown.sigma = read_sigma(*u, "initial_sigma", c.fusion.unknown.sigma);
   doc.finish();
   return c;
 }

@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include "basestation/fusion.hpp"
 #include "common/clock.hpp"
 #include "common/dds/profile.hpp"
 
@@ -13,6 +14,15 @@ struct BaseConfig {
   dds::DdsProfile dds;
   Nanos stale_after = 3 * kNanosPerSecond;
   Nanos table_period = kNanosPerSecond;
+
+  // [fusion]: cooperative CML over every robot's odometry and features.
+  bool fusion_enabled = true;
+  std::string state_dir = "cairn-base-state";  // snapshot + write-ahead log (relative to the working directory)
+  Nanos snapshot_period = 30 * kNanosPerSecond;
+  Nanos correction_period = 200 * kNanosPerMilli;
+  Nanos map_period = kNanosPerSecond;
+  int history_depth = 512;  // per robot: what a restarted base can still fetch from the robots
+  FusionConfig fusion;      // [[robot]] priors, [unknown_robot]
 };
 
 BaseConfig load_base_config(const std::string& path);

@@ -72,6 +72,7 @@ Fusion::Result Fusion::on_odometry(const cairn_OdometryIncrement& m) {
     t.have_odometry = true;
     t.odom_seq = m.seq;
     t.local = local;
+    remember(t, Mat3::Zero());
     ++counters_.odometry_applied;
     drain_pending(m.robot_id, t);
     return Result::kApplied;
@@ -91,6 +92,7 @@ Fusion::Result Fusion::on_odometry(const cairn_OdometryIncrement& m) {
   filter_.predict(m.robot_id, delta, cov);
   t.odom_seq = m.seq;
   t.local = local;
+  remember(t, cov);
   ++counters_.odometry_applied;
   drain_pending(m.robot_id, t);
   return Result::kApplied;
@@ -123,10 +125,14 @@ Fusion::Result Fusion::on_features(const cairn_FeatureObservations& m) {
   }
   Track& t = it->second;
   if (m.odom_seq < t.odom_seq) {
-    ++counters_.feature_stale;
-    t.have_features = true;
-    t.feature_seq = std::max(t.feature_seq, m.seq);
-    return Result::kRejected;
+    cairn_FeatureObservations late = m;
+    if (!reexpress(&late, t)) {
+      ++counters_.feature_stale;
+      return Result::kRejected;
+    }
+    ++counters_.feature_late;
+    apply_features(late, t);
+    return Result::kApplied;
   }
   apply_features(m, t);
   return Result::kApplied;
@@ -139,14 +145,55 @@ void Fusion::drain_pending(std::uint16_t robot, Track& t) {
     t.pending.pop_front();
     if (t.have_features && m.seq <= t.feature_seq) {
       ++counters_.feature_duplicates;
-    } else if (m.odom_seq < t.odom_seq) {
-      ++counters_.feature_stale;
-      t.have_features = true;
-      t.feature_seq = std::max(t.feature_seq, m.seq);
     } else {
-      apply_features(m, t);
+      apply_features(m, t);  // odom_seq <= t.odom_seq here; equal unless several were released at once
     }
   }
+}
+
+void Fusion::remember(Track& t, const Mat3& cov) {
+  const Mat3 total = t.cumulative.empty() ? cov : Mat3(t.cumulative.back().second + cov);
+  t.cumulative.emplace_back(t.odom_seq, total);
+  while (t.cumulative.size() > config_.odometry_window) t.cumulative.pop_front();
+}
+
+bool Fusion::reexpress(cairn_FeatureObservations* m, const Track& t) const {
+  auto at = [&](std::uint32_t seq) -> const Mat3* {
+    for (auto it = t.cumulative.rbegin(); it != t.cumulative.rend(); ++it) {
+      if (it->first == seq) return &it->second;
+      if (it->first < seq) break;
+    }
+    return nullptr;
+  };
+  const Mat3* then = at(m->odom_seq);
+  if (!then || t.cumulative.empty()) return false;
+  const Mat3 motion = t.cumulative.back().second - *then;  // odometry covariance accumulated since
+  // T: the frame the features were observed in, seen from the robot's current local pose.
+  const Pose2 T = between(t.local, dds::from_msg(m->local_pose));
+  for (int i = 0; i < m->n_features; ++i) {
+    cairn_Feature& f = m->features[i];
+    const RangeBearing z{f.range, f.bearing};
+    const Vec2 p = point_from_observation({}, z);
+    const Vec2 q = transform_point(T, p);
+    Mat2 g_z, h_q;
+    point_from_observation_jacobians({}, z, nullptr, &g_z);
+    Mat23 j_T;
+    Mat2 j_p;
+    transform_point_jacobians(T, p, &j_T, &j_p);
+    observe_point_jacobians({}, q, nullptr, &h_q);
+    const Mat2 R = mat2(f.cov);
+    const Mat2 Rq = j_p * g_z * R * g_z.transpose() * j_p.transpose() + j_T * motion * j_T.transpose();
+    const Mat2 Rz = h_q * Rq * h_q.transpose();
+    const RangeBearing z2 = observe_point({}, q);
+    f.range = z2.range;
+    f.bearing = z2.bearing;
+    f.cov[0] = Rz(0, 0);
+    f.cov[1] = f.cov[2] = 0.5 * (Rz(0, 1) + Rz(1, 0));
+    f.cov[3] = Rz(1, 1);
+  }
+  m->local_pose = dds::to_msg(t.local);
+  m->odom_seq = t.odom_seq;
+  return true;
 }
 
 void Fusion::apply_features(const cairn_FeatureObservations& m, Track& t) {
@@ -304,6 +351,11 @@ void Fusion::save(std::ostream& out) const {
     put(out, t.localized);
     put(out, static_cast<std::uint64_t>(t.pending.size()));
     for (const auto& m : t.pending) put(out, m);
+    put(out, static_cast<std::uint64_t>(t.cumulative.size()));
+    for (const auto& [seq, cov] : t.cumulative) {
+      put(out, seq);
+      out.write(reinterpret_cast<const char*>(cov.data()), sizeof(double) * 9);
+    }
   }
 }
 
@@ -336,6 +388,16 @@ void Fusion::load(std::istream& in) {
       cairn_FeatureObservations m;
       get(in, &m);
       t.pending.push_back(m);
+    }
+    std::uint64_t nc = 0;
+    get(in, &nc);
+    if (nc > 10'000'000) throw std::runtime_error("fusion snapshot: implausible odometry window");
+    for (std::uint64_t j = 0; j < nc; ++j) {
+      std::uint32_t seq = 0;
+      get(in, &seq);
+      Mat3 cov;
+      if (!in.read(reinterpret_cast<char*>(cov.data()), sizeof(double) * 9)) throw std::runtime_error("fusion snapshot: truncated");
+      t.cumulative.emplace_back(seq, cov);
     }
   }
 }

@@ -5,8 +5,11 @@
 //
 // Ordering rules: odometry is applied in seq order per robot (duplicates skipped; a gap
 // is bridged with the robot's reported local poses, its covariance scaled by the gap).
-// Features wait (bounded) until the odometry they refer to (odom_seq) has been applied;
-// features older than the applied odometry are stale and counted, not applied.
+// Features wait (bounded) until the odometry they refer to (odom_seq) has been applied.
+// Features that arrive after later odometry (the two topics are independent) are
+// re-expressed from the robot's current pose through the robot's own local poses, with
+// the odometry covariance in between added to their noise; only features older than the
+// remembered odometry window are stale (counted, not applied).
 #pragma once
 
 #include <cstdint>
@@ -33,6 +36,7 @@ struct FusionConfig {
   RobotPrior unknown;                          // for robots not listed
   int iterations = 1;                          // EKF update iterations
   std::size_t max_pending = 64;                // feature messages waiting for their odometry, per robot
+  std::size_t odometry_window = 1024;          // increments remembered per robot to re-express late features
   double candidate_range = 15.0;               // JCBB candidates within this distance (m)
   /// An unpaired observation starts a new feature only if no existing feature explains it
   /// even at this confidence (far stricter than the pairing gate: duplicates are costly).
@@ -42,7 +46,7 @@ struct FusionConfig {
 
 struct FusionCounters {
   std::uint64_t odometry_applied = 0, odometry_duplicates = 0, odometry_gaps = 0;
-  std::uint64_t feature_messages_applied = 0, feature_duplicates = 0, feature_stale = 0, pending_overflow = 0;
+  std::uint64_t feature_messages_applied = 0, feature_duplicates = 0, feature_late = 0, feature_stale = 0, pending_overflow = 0;
   std::uint64_t observations_used = 0, observations_new_features = 0, observations_rejected = 0;
   std::uint64_t robots_joined = 0, robots_localized = 0, invalid_messages = 0;
 };
@@ -78,10 +82,15 @@ class Fusion {
     std::uint32_t feature_seq = 0;
     bool localized = false;
     std::deque<cairn_FeatureObservations> pending;
+    // Cumulative odometry covariance (robot frame approximation) by seq, for late features.
+    std::deque<std::pair<std::uint32_t, Mat3>> cumulative;
   };
 
   Track& join(std::uint16_t robot, const Pose2& local_now);
   void apply_features(const cairn_FeatureObservations& m, Track& t);
+  void remember(Track& t, const Mat3& cov);
+  /// Re-expresses a late message's features from the robot's current pose; false if too old.
+  bool reexpress(cairn_FeatureObservations* m, const Track& t) const;
   void drain_pending(std::uint16_t robot, Track& t);
   static bool valid(const cairn_OdometryIncrement& m);
   static bool valid(const cairn_FeatureObservations& m);

@@ -6,6 +6,7 @@
 
 #include "basestation/base_config.hpp"
 #include "basestation/fleet.hpp"
+#include "basestation/fusion_node.hpp"
 #include "cairn.h"
 #include "common/dds/topics.hpp"
 #include "common/log.hpp"
@@ -45,11 +46,18 @@ int run(const std::string& config_path, double duration_s) {
   // and enforced, and a robot whose lease expires shows up as "no writers".
   dds::Reader<cairn_RobotStatus> status_reader(pp, status_topic, dds::state_qos(1));
 
+  std::unique_ptr<base::FusionNode> fusion;
+  if (cfg.fusion_enabled) {
+    fusion = std::make_unique<base::FusionNode>(pp, cfg);
+    CAIRN_LOG_INFO("base", "fusion: {}", fusion->restore());
+  }
+
   const Nanos end = duration_s > 0 ? start + seconds_to_nanos(duration_s) : 0;
   Nanos next_table = start + cfg.table_period;
   while (!shutdown_requested() && (end == 0 || clock.now() < end)) {
-    status_reader.wait(100 * kNanosPerMilli);
+    status_reader.wait(20 * kNanosPerMilli);
     const Nanos now = clock.now();
+    if (fusion) fusion->poll(now);
     status_reader.take(
         [&](const cairn_RobotStatus& s, const dds_sample_info_t&) {
           fleet.on_status(s.robot_id, s.name, mode_name(s.mode), s.seq, now);
@@ -67,9 +75,11 @@ int run(const std::string& config_path, double duration_s) {
       if (tty) std::printf("\033[2J\033[H");
       std::printf("[%8.3f] fleet: %zu alive\n%s", nanos_to_seconds(now - start), fleet.alive_count(),
                   fleet.table(now).c_str());
+      if (fusion) std::printf("[%8.3f] %s\n", nanos_to_seconds(now - start), fusion->summary().c_str());
       std::fflush(stdout);
     }
   }
+  if (fusion) std::printf("[%8.3f] final %s\n", nanos_to_seconds(clock.now() - start), fusion->summary().c_str());
   CAIRN_LOG_INFO("base", "base station stopping");
   logger().stop();
   return 0;

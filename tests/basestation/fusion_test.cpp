@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <deque>
 #include <filesystem>
 #include <sstream>
 
@@ -109,12 +110,51 @@ TEST(Fusion, BadDuplicateLateAndMissingMessagesAreCountedNotFatal) {
   EXPECT_EQ(f.on_odometry(odo[5]), Fusion::Result::kApplied);
   EXPECT_EQ(f.counters().odometry_gaps, 1u);
   EXPECT_EQ(f.on_odometry(odo[3]), Fusion::Result::kDuplicate);
-  // Features older than the applied odometry are stale.
-  EXPECT_EQ(f.on_features(feats[1]), Fusion::Result::kRejected);
+  // Features whose odometry is older than the applied one are re-expressed from the current pose...
+  EXPECT_EQ(f.on_odometry(odo[6]), Fusion::Result::kApplied);  // seq 7
+  EXPECT_EQ(f.on_odometry(odo[7]), Fusion::Result::kApplied);  // seq 8
+  ASSERT_EQ(feats[3].odom_seq, 7u);
+  EXPECT_EQ(f.on_features(feats[3]), Fusion::Result::kApplied);
+  EXPECT_EQ(f.counters().feature_late, 1u);
+  // ... unless their odometry was never applied (skipped by the gap) or left the window: stale.
+  cairn_FeatureObservations ancient = feats[4];
+  ancient.odom_seq = 4;  // an increment the gap skipped
+  EXPECT_EQ(f.on_features(ancient), Fusion::Result::kRejected);
   EXPECT_EQ(f.counters().feature_stale, 1u);
   const Pose2 est = f.filter().robot_pose(1);
-  const Pose2 want = compose(s.starts[0], dds::from_msg(odo[5].local_pose));
+  const Pose2 want = compose(s.starts[0], dds::from_msg(odo[7].local_pose));
   EXPECT_NEAR(est.x, want.x, 0.1);
+}
+
+TEST(Fusion, LateFeaturesGiveTheSameMapAsInOrderOnes) {
+  // Deliver every feature message only after the next two odometry increments: the
+  // re-expressed observations must give (nearly) the same estimate as in-order delivery.
+  const FleetScenario s = testing::make_fleet_scenario(2, 400);
+  Fusion in_order(config_for(s)), late(config_for(s));
+  std::deque<cairn_FeatureObservations> held;
+  int odo_since = 0;
+  for (const auto& m : s.messages) {
+    feed(&in_order, m);
+    if (const auto* o = std::get_if<cairn_OdometryIncrement>(&m)) {
+      late.on_odometry(*o);
+      if (++odo_since >= 4) {  // two steps of two robots
+        while (!held.empty()) {
+          late.on_features(held.front());
+          held.pop_front();
+        }
+        odo_since = 0;
+      }
+    } else {
+      held.push_back(std::get<cairn_FeatureObservations>(m));
+    }
+  }
+  EXPECT_GT(late.counters().feature_late, 100u);
+  EXPECT_EQ(late.counters().feature_stale, 0u);
+  for (int r = 0; r < 2; ++r) {
+    EXPECT_LT(position_error(late, s, r), 0.2) << r;
+    const Pose2 a = in_order.filter().robot_pose(r + 1), b = late.filter().robot_pose(r + 1);
+    EXPECT_LT(std::hypot(a.x - b.x, a.y - b.y), 0.1) << r;
+  }
 }
 
 TEST(Fusion, SnapshotRestoresTheExactState) {

@@ -36,7 +36,8 @@ TEST(Fleet, BaseSeesRobotsJoinGetLostAndRejoin) {
   const std::string dds = "[dds]\nprofile = \"loopback\"\ndomain = " + std::to_string(kDomain) + "\n";
   const std::string robot_cfg = write_config("robot.toml", "[robot]\nid = 1\n" + dds +
                                                                "[status]\nperiod_s = 0.5\nliveliness_lease_s = 1.5\n");
-  const std::string base_cfg = write_config("base.toml", dds + "[fleet]\nstale_after_s = 3.0\ntable_period_s = 1.0\n");
+  const std::string base_cfg =
+      write_config("base.toml", dds + "[fleet]\nstale_after_s = 3.0\ntable_period_s = 1.0\n[fusion]\nenabled = false\n");
 
   Subprocess base({CAIRN_BASE_BIN, "--config", base_cfg, "--duration", "60"});
   ASSERT_TRUE(base.wait_for_line("starting; DDS profile loopback", 5s)) << base.output();

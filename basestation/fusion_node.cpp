@@ -1,0 +1,77 @@
+#include "basestation/fusion_node.hpp"
+
+#include <cstdio>
+
+namespace cairn::base {
+
+FusionNode::FusionNode(const dds::Participant& pp, const BaseConfig& cfg)
+    : cfg_(cfg),
+      fusion_(cfg.fusion),
+      store_(cfg.state_dir, cfg.snapshot_period),
+      odom_topic_(pp),
+      feat_topic_(pp),
+      corr_topic_(pp),
+      map_topic_(pp),
+      odom_reader_(pp, odom_topic_, dds::latched_qos(cfg.history_depth)),
+      feat_reader_(pp, feat_topic_, dds::latched_qos(cfg.history_depth)),
+      corr_writer_(pp, corr_topic_, dds::latched_qos()),
+      map_writer_(pp, map_topic_, dds::latched_qos()) {}
+
+std::string FusionNode::restore() {
+  const RestoreReport r = store_.restore(&fusion_);
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "state in %s: %s, replayed %llu odometry + %llu feature messages from the log, %llu torn record(s) ignored; "
+                "%zu robot(s), %zu feature(s)",
+                store_.dir().c_str(), r.snapshot_loaded ? "snapshot loaded" : "no snapshot (fresh start)",
+                static_cast<unsigned long long>(r.replayed_odometry), static_cast<unsigned long long>(r.replayed_features),
+                static_cast<unsigned long long>(r.torn_records), fusion_.robots().size(), fusion_.filter().feature_count());
+  return buf;
+}
+
+void FusionNode::poll(Nanos now) {
+  // Odometry first, so features that refer to it can be applied at once.
+  odom_reader_.take([&](const cairn_OdometryIncrement& m, const dds_sample_info_t&) {
+    store_.append(m, now);  // write-ahead: logged before it changes the state
+    fusion_.on_odometry(m);
+  });
+  feat_reader_.take([&](const cairn_FeatureObservations& m, const dds_sample_info_t&) {
+    store_.append(m, now);
+    fusion_.on_features(m);
+  });
+  store_.maybe_snapshot(fusion_, now);
+  if (now >= next_correction_) {
+    next_correction_ = now + cfg_.correction_period;
+    for (std::uint16_t id : fusion_.robots()) {
+      cairn_PoseCorrection c;
+      if (fusion_.correction(id, now, &c)) {
+        c.seq = ++correction_seq_;
+        corr_writer_.write(c);
+      }
+    }
+  }
+  if (now >= next_map_) {
+    next_map_ = now + cfg_.map_period;
+    fusion_.feature_map(now, map_msg_.get());
+    map_msg_->seq = ++map_seq_;
+    map_writer_.write(*map_msg_);
+  }
+}
+
+std::string FusionNode::summary() const {
+  const FusionCounters& c = fusion_.counters();
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "fusion: odometry %llu applied (%llu dup, %llu gaps), features %llu applied (%llu dup, %llu late, %llu stale), "
+                "observations %llu used / %llu new / %llu rejected, invalid %llu, robots %zu (%llu localised), map %zu",
+                static_cast<unsigned long long>(c.odometry_applied), static_cast<unsigned long long>(c.odometry_duplicates),
+                static_cast<unsigned long long>(c.odometry_gaps), static_cast<unsigned long long>(c.feature_messages_applied),
+                static_cast<unsigned long long>(c.feature_duplicates), static_cast<unsigned long long>(c.feature_late),
+                static_cast<unsigned long long>(c.feature_stale),
+                static_cast<unsigned long long>(c.observations_used), static_cast<unsigned long long>(c.observations_new_features),
+                static_cast<unsigned long long>(c.observations_rejected), static_cast<unsigned long long>(c.invalid_messages),
+                fusion_.robots().size(), static_cast<unsigned long long>(c.robots_localized), fusion_.filter().feature_count());
+  return buf;
+}
+
+}  // namespace cairn::base
