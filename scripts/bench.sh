@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Runs Cairn's benchmarks beside their peer baselines, in one go, and prints the ratios.
+# Installs the peers first (MRPT from Debian: scripts/setup-deps.sh --peers).
+#   scripts/bench.sh [dds|ccml|all]   (default all)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+what=${1:-all}
+scripts/setup-deps.sh --peers
+scripts/build.sh release >/dev/null
+B=build/release/tests/bench
+export CYCLONEDDS_URI="file://$PWD/config/dds/loopback.xml"   # DDS stays on loopback
+if [[ $what == dds || $what == all ]]; then
+  echo "== DDS: Cairn's layer vs Cyclone's ddsperf (10 s each)"
+  tests/bench/dds_vs_ddsperf.sh "$B/cairn-bench-dds" 10
+fi
+if [[ $what == ccml || $what == all ]]; then
+  echo "== CCML: Cairn's EKF vs MRPT's CRangeBearingKFSLAM2D"
+  "$B/cairn-bench-ccml-mrpt" --steps 200 --mrclam ../shared/datasets/mrclam/MRCLAM_Dataset6
+fi
