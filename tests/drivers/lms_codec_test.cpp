@@ -110,7 +110,7 @@ TEST(LmsParser, ResynchronisesAfterGarbageAndBadCrc) {
   auto bad = a0;
   bad[5] ^= 0x01;  // corrupt: CRC fails
   std::vector<std::uint8_t> stream = {0x06};  // ACK
-  for (std::uint8_t g : {0x11, 0x02, 0x33, 0x02, 0x02, 0x44}) stream.push_back(g);  // garbage incl. stray STX
+  for (int g : {0x11, 0x02, 0x33, 0x02, 0x02, 0x44}) stream.push_back(static_cast<std::uint8_t>(g));  // garbage incl. stray STX
   stream.insert(stream.end(), bad.begin(), bad.end());
   stream.insert(stream.end(), a0.begin(), a0.end());
   stream.push_back(0x15);  // NAK

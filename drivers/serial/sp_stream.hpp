@@ -1,0 +1,36 @@
+// A real UART through libserialport (8N1, no flow control).
+// Note: Debian's libserialport 0.1.1 cannot open a pty (it needs a sysfs tty), so this
+// backend is exercised for real in the VM bench; ptys use TtyStream (tty:).
+#pragma once
+
+#include "drivers/serial/byte_stream.hpp"
+
+struct sp_port;
+struct sp_event_set;
+
+namespace cairn::serial {
+
+class SerialPortStream final : public ByteStream {
+ public:
+  static std::unique_ptr<SerialPortStream> open(const std::string& name, std::uint32_t baud, std::string* error);
+  ~SerialPortStream() override;
+  IoResult read(std::span<std::uint8_t> buffer, Nanos timeout) override;
+  IoResult write(std::span<const std::uint8_t> bytes, Nanos timeout) override;
+  bool set_baud(std::uint32_t baud, std::string* error) override;
+  bool can_set_baud() const override { return true; }
+  std::uint32_t baud() const override { return baud_; }
+  void flush_input() override;
+  bool reopen(std::string* error) override;
+  std::string describe() const override { return "serial:" + name_; }
+
+ private:
+  SerialPortStream(std::string name, std::uint32_t baud) : name_(std::move(name)), baud_(baud) {}
+  bool open_port(std::string* error);
+  void close_port();
+  std::string name_;
+  std::uint32_t baud_;
+  sp_port* port_ = nullptr;
+  sp_event_set* rx_events_ = nullptr;
+};
+
+}  // namespace cairn::serial

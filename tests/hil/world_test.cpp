@@ -1,0 +1,86 @@
+// The HIL world: parsing with clear errors, exact ray casting, the shipped worlds.
+#include "hil/world/world.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+namespace cairn::hil {
+namespace {
+
+std::string error_of(const std::string& text) {
+  try {
+    World::parse(text, "w.world");
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(World, RayCastingIsExact) {
+  const World w = World::parse("box 0 0 10 10\ncircle 5 5 1\npole 8 2 0.05\n", "t");
+  // From (2,5) east: the circle's surface at x = 4.
+  RayHit h = w.cast({2, 5}, 0.0, 30.0);
+  ASSERT_TRUE(h.hit);
+  EXPECT_NEAR(h.range, 2.0, 1e-12);
+  EXPECT_FALSE(h.reflective);
+  // West: the wall at x = 0.
+  h = w.cast({2, 5}, std::numbers::pi, 30.0);
+  EXPECT_NEAR(h.range, 2.0, 1e-12);
+  // Diagonal into the corner (10,10) from (5,9)... the top wall at y = 10.
+  h = w.cast({5, 9}, std::numbers::pi / 4, 30.0);
+  EXPECT_NEAR(h.range, std::sqrt(2.0), 1e-12);
+  // The pole is reflective.
+  h = w.cast({2, 2}, 0.0, 30.0);
+  EXPECT_NEAR(h.range, 5.95, 1e-12);
+  EXPECT_TRUE(h.reflective);
+  // Beyond max range: no hit.
+  h = w.cast({2, 2}, 0.0, 3.0);
+  EXPECT_FALSE(h.hit);
+  EXPECT_EQ(h.range, 3.0);
+}
+
+TEST(World, RobotsAreReflectiveMovingCircles) {
+  World w = World::parse("box 0 0 10 10\n", "t");
+  w.set_robot(2, {6, 5}, 0.3);
+  RayHit h = w.cast({2, 5}, 0.0, 30.0);
+  EXPECT_NEAR(h.range, 3.7, 1e-12);
+  EXPECT_EQ(h.robot, 2);
+  EXPECT_TRUE(h.reflective);
+  EXPECT_FALSE(w.cast({2, 5}, 0.0, 30.0, /*ignore_robot=*/2).reflective);
+  w.set_robot(2, {8, 5}, 0.3);
+  EXPECT_NEAR(w.cast({2, 5}, 0.0, 30.0).range, 5.7, 1e-12);
+  EXPECT_TRUE(w.collides({7.9, 5.1}, 0.2));
+  EXPECT_FALSE(w.collides({3, 3}, 0.2));
+  EXPECT_TRUE(w.collides({0.1, 3}, 0.2));
+  EXPECT_TRUE(w.poles().empty());
+}
+
+TEST(World, ErrorsNameFileAndLine) {
+  EXPECT_NE(error_of("box 0 0 1 1\nwal 0 0 1 1\n").find("w.world:2: unknown keyword 'wal'"), std::string::npos);
+  EXPECT_NE(error_of("circle 1 2\n").find("w.world:1: 'circle' expects 3 numbers"), std::string::npos);
+  EXPECT_NE(error_of("pole 1 2 -1\n").find("radius must be positive"), std::string::npos);
+  EXPECT_NE(error_of("wall 0 0 1 1 extra\n").find("unexpected 'extra'"), std::string::npos);
+  EXPECT_NE(error_of("wall 0 0 nan 1\n").find("expects 4 numbers"), std::string::npos);
+}
+
+TEST(World, ShippedWorldsLoad) {
+  const std::filesystem::path dir = std::filesystem::path(CAIRN_SOURCE_DIR_STR) / "hil" / "worlds";
+  int n = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    SCOPED_TRACE(e.path().string());
+    const World w = World::load(e.path().string());
+    EXPECT_GE(w.poles().size(), 5u);
+    ASSERT_TRUE(w.start(1).has_value());
+    EXPECT_FALSE(w.collides(w.start(1)->translation(), 0.25)) << "robot 1 starts inside an obstacle";
+    ++n;
+  }
+  EXPECT_EQ(n, 4);
+  // The random world covers about 15% of its area with obstacles (4 segments per cell).
+  const World r = World::load((dir / "random15.world").string());
+  const double cells = static_cast<double>(r.segments().size() - 4) / 4.0;
+  EXPECT_NEAR(cells / 400.0, 0.15, 0.01);
+}
+
+}  // namespace
+}  // namespace cairn::hil
