@@ -1,0 +1,255 @@
+// The LMS2xx driver against the byte-exact emulator over a pty and over TCP: power-on
+// to streaming from every start baud, scans equal to the world's ray casts, every
+// injected fault survived and counted, and baud-aware timestamps.
+#include "drivers/sick/lms_driver.hpp"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "hil/lms2xx/lms_server.hpp"
+
+namespace cairn {
+namespace {
+
+using namespace std::chrono_literals;
+
+const char* kWorld =
+    "box 0 0 20 20\n"
+    "pole 9 6 0.05\npole 12 9 0.05\npole 6 12 0.05\n"
+    "circle 14 14 0.5\nbox 3 3 1 1\n";
+const Pose2 kSensor{8.0, 8.0, 0.3};
+
+struct Collector : lms::ScanSink {
+  std::mutex m;
+  std::vector<lms::LmsScan> scans;
+  void on_scan(const lms::LmsScan& s) override {
+    std::lock_guard l(m);
+    scans.push_back(s);
+  }
+  std::size_t count() {
+    std::lock_guard l(m);
+    return scans.size();
+  }
+};
+
+class Bench {
+ public:
+  explicit Bench(hil::LmsServer::Link link, std::uint32_t target = 500000)
+      : world_(hil::World::parse(kWorld, "test")),
+        server_(link, cfg(), &world_, [](Nanos) { return kSensor; }) {
+    server_.start();
+    std::string err;
+    stream_ = serial::open_stream(server_.uri(), link == hil::LmsServer::Link::kTcp ? target : 9600, &err);
+    if (!stream_) throw std::runtime_error(err);
+    lms::LmsDriverConfig dc;
+    dc.target_baud = target;
+    dc.resolution_centideg = 50;
+    driver_ = std::make_unique<lms::LmsDriver>(stream_.get(), &MonotonicClock::instance(), dc, &sink_);
+  }
+  ~Bench() {
+    stop_io();
+    server_.stop();
+  }
+  static hil::LmsDeviceConfig cfg() {
+    hil::LmsDeviceConfig c;
+    c.boot_time_s = 0.2;
+    c.range_noise_m = 0.005;
+    return c;
+  }
+  void start_io() {
+    running_ = true;
+    io_ = std::thread([this] {
+      while (running_) {
+        std::lock_guard l(driver_mutex_);
+        driver_->step();
+      }
+    });
+  }
+  void stop_io() {
+    running_ = false;
+    if (io_.joinable()) io_.join();
+  }
+  /// Waits until the driver streams and `n` more scans arrived; returns seconds taken or -1.
+  double wait_streaming(std::size_t n, std::chrono::milliseconds timeout) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::size_t base = sink_.count();
+    while (std::chrono::steady_clock::now() - t0 < timeout) {
+      if (state() == lms::DriverState::kStreaming && sink_.count() >= base + n) {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      }
+      std::this_thread::sleep_for(5ms);
+    }
+    return -1;
+  }
+  lms::DriverState state() {
+    std::lock_guard l(driver_mutex_);
+    return driver_->state();
+  }
+  lms::LmsCounters counters() {
+    std::lock_guard l(driver_mutex_);
+    return driver_->counters();
+  }
+  std::string reason() {
+    std::lock_guard l(driver_mutex_);
+    return driver_->reason();
+  }
+  hil::World world_;
+  hil::LmsServer server_;
+  std::unique_ptr<serial::ByteStream> stream_;
+  Collector sink_;
+  std::unique_ptr<lms::LmsDriver> driver_;
+  std::mutex driver_mutex_;
+  std::thread io_;
+  std::atomic<bool> running_{false};
+};
+
+TEST(LmsDriver, PowerOnToStreamingFromEveryStartBaud) {
+  for (std::uint32_t start : {9600u, 19200u, 38400u, 500000u}) {
+    SCOPED_TRACE(start);
+    Bench b(hil::LmsServer::Link::kPty);
+    std::this_thread::sleep_for(300ms);  // booted: the power-on telegram went out at 9600
+    b.server_.force_baud(start);         // a device left at another permanent rate
+    b.start_io();
+    const double t = b.wait_streaming(5, 5s);
+    ASSERT_GT(t, 0) << b.reason();
+    EXPECT_LT(t, 3.0) << "streaming took " << t << " s";
+    EXPECT_EQ(b.stream_->baud(), 500000u);
+    EXPECT_STREQ(b.driver_->device_type(), "LMS291;S05          ");
+    std::printf("start %6u baud: streaming after %.3f s\n", start, t);
+  }
+}
+
+TEST(LmsDriver, ScansEqualTheWorldsRayCasts) {
+  Bench b(hil::LmsServer::Link::kPty);
+  b.start_io();
+  ASSERT_GT(b.wait_streaming(10, 5s), 0) << b.reason();
+  std::lock_guard l(b.sink_.m);
+  const lms::LmsScan& s = b.sink_.scans.back();
+  ASSERT_EQ(s.count, 361);
+  int reflective_seen = 0, compared = 0;
+  for (int i = 0; i < s.count; ++i) {
+    const double a = kSensor.theta + s.angle_min + i * s.angle_increment;
+    const hil::RayHit h = b.world_.cast(kSensor.translation(), a, 30.0);
+    if (!h.hit) {
+      EXPECT_EQ(s.range_mm[i], 0) << i;
+      continue;
+    }
+    EXPECT_NEAR(s.range_mm[i] / 1000.0, h.range, 5 * 0.005 + 0.001) << "beam " << i;
+    EXPECT_EQ(s.flags[i] != 0, h.reflective) << "beam " << i;
+    reflective_seen += h.reflective;
+    ++compared;
+  }
+  EXPECT_EQ(compared, 361);
+  EXPECT_GT(reflective_seen, 0);
+}
+
+TEST(LmsDriver, EveryInjectedFaultIsSurvivedCountedAndRecovered) {
+  Bench b(hil::LmsServer::Link::kPty);
+  b.start_io();
+  ASSERT_GT(b.wait_streaming(5, 5s), 0) << b.reason();
+
+  b.server_.inject_garbage(300);
+  EXPECT_GT(b.wait_streaming(5, 2s), 0) << "after garbage: " << b.reason();
+  EXPECT_GE(b.counters().resyncs, 1u);
+
+  const auto crc0 = b.counters().crc_errors;
+  b.server_.corrupt_next_crc();
+  EXPECT_GT(b.wait_streaming(5, 2s), 0) << "after a flipped CRC: " << b.reason();
+  EXPECT_GE(b.counters().crc_errors, crc0 + 1);
+
+  const auto crc1 = b.counters().crc_errors;
+  b.server_.drop_bytes(20);
+  EXPECT_GT(b.wait_streaming(5, 2s), 0) << "after dropped bytes: " << b.reason();
+  EXPECT_GE(b.counters().crc_errors + b.counters().resyncs, crc1 + 1);
+
+  // Unplugged for a second: the driver notices, searches, and streams again once replugged.
+  const auto timeouts = b.counters().timeouts;
+  b.server_.unplug(true);
+  std::this_thread::sleep_for(1s);
+  EXPECT_NE(b.state(), lms::DriverState::kStreaming);
+  EXPECT_GT(b.counters().timeouts, timeouts);
+  b.server_.unplug(false);
+  double t = b.wait_streaming(3, 5s);
+  EXPECT_GT(t, 0) << "after unplug: " << b.reason();
+  EXPECT_LT(t, 3.0);
+
+  // Power cycle: back at 9600 in idle mode; the driver reconfigures within 3 s of the power-on telegram.
+  b.server_.power_cycle();
+  t = b.wait_streaming(3, 6s);
+  EXPECT_GT(t, 0) << "after power cycle: " << b.reason();
+  EXPECT_LT(t, 3.0 + Bench::cfg().boot_time_s);
+  EXPECT_EQ(b.stream_->baud(), 500000u);
+
+  // The device jumps to another baud rate: garbage, then re-detection.
+  b.server_.force_baud(38400);
+  t = b.wait_streaming(3, 6s);
+  EXPECT_GT(t, 0) << "after a wrong baud: " << b.reason();
+  EXPECT_LT(t, 3.0);
+  std::printf("counters: scans %llu, crc %llu, resyncs %llu, timeouts %llu, reconnects %llu, power-on %llu\n",
+              static_cast<unsigned long long>(b.counters().scans), static_cast<unsigned long long>(b.counters().crc_errors),
+              static_cast<unsigned long long>(b.counters().resyncs), static_cast<unsigned long long>(b.counters().timeouts),
+              static_cast<unsigned long long>(b.counters().reconnects),
+              static_cast<unsigned long long>(b.counters().power_on_telegrams));
+}
+
+TEST(LmsDriver, BaudAwareTimestampsMatchTheEmulatorsLineTimes) {
+  Bench b(hil::LmsServer::Link::kPty);
+  b.start_io();
+  ASSERT_GT(b.wait_streaming(100, 10s), 0) << b.reason();
+  b.stop_io();
+  std::vector<double> errors_us;
+  std::lock_guard l(b.sink_.m);
+  b.server_.with_device([&](hil::LmsDevice& d) {
+    // Match scans by content: the emulator's ranges are noisy, so match each driver scan to
+    // the sent scan whose line time is nearest (they come at ~37 Hz, 27 ms apart).
+    for (const auto& s : b.sink_.scans) {
+      double best = 1e18;
+      for (const auto& sent : d.sent_scans()) {
+        if (sent.tx_start < 0) continue;
+        best = std::min(best, std::abs(static_cast<double>(s.first_byte_time - sent.tx_start)) / 1e3);
+      }
+      errors_us.push_back(best);
+    }
+    return 0;
+  });
+  std::sort(errors_us.begin(), errors_us.end());
+  const double p50 = errors_us[errors_us.size() / 2], p99 = errors_us[errors_us.size() * 99 / 100];
+  std::printf("first-byte time error vs the emulator's line time (%zu scans at 500 kBd): p50 %.0f us, p99 %.0f us\n",
+              errors_us.size(), p50, p99);
+  // A 0.5° beam takes 18.5 µs; a user-space pty bench paces in 200 µs steps and is read by
+  // another process, so we hold it to 1 ms (docs/lms2xx.md explains the bound).
+  EXPECT_LT(p50, 1000.0);
+  EXPECT_LT(p99, 2000.0);
+}
+
+TEST(LmsDriver, StreamsOverTcpAtAFixedBaud) {
+  Bench b(hil::LmsServer::Link::kTcp, 500000);
+  std::this_thread::sleep_for(300ms);
+  b.server_.force_baud(500000);  // the device server's line is set to 500 kBd out of band
+  b.start_io();
+  const double t = b.wait_streaming(10, 5s);
+  ASSERT_GT(t, 0) << b.reason();
+  EXPECT_LT(t, 3.0);
+}
+
+TEST(LmsDriver, MissingPortsGiveClearErrors) {
+  std::string err;
+  EXPECT_EQ(serial::open_stream("tty:/dev/does-not-exist", 9600, &err), nullptr);
+  EXPECT_NE(err.find("tty:/dev/does-not-exist: cannot open"), std::string::npos) << err;
+  EXPECT_EQ(serial::open_stream("serial:/dev/ttyUSB99", 9600, &err), nullptr);
+  EXPECT_NE(err.find("serial:/dev/ttyUSB99"), std::string::npos) << err;
+  EXPECT_NE(err.find("libserialport sees"), std::string::npos) << err;
+  EXPECT_EQ(serial::open_stream("tcp:127.0.0.1:1", 9600, &err), nullptr);
+  EXPECT_NE(err.find("cannot connect"), std::string::npos) << err;
+  EXPECT_EQ(serial::open_stream("bogus", 9600, &err), nullptr);
+  EXPECT_NE(err.find("expected serial:DEVICE"), std::string::npos) << err;
+  EXPECT_DOUBLE_EQ(serial::byte_time_s(500000), 20e-6);
+  EXPECT_EQ(serial::first_byte_time(1'000'000'000, 732, 38400), 1'000'000'000 - 190'625'000);
+}
+
+}  // namespace
+}  // namespace cairn
