@@ -139,7 +139,7 @@ bool decode_values(const Telegram& t, std::uint8_t measuring_mode, ScanValues* o
       ++out->saturated;
     }
     out->range_mm[i] = static_cast<std::uint16_t>(mm);
-    out->flags[i] = bits >= 16 ? 0 : static_cast<std::uint8_t>(v >> bits);
+    out->flags[i] = static_cast<std::uint8_t>(bits >= 16 ? 0 : (v >> bits));
   }
   out->status = t.data.back();
   return true;

@@ -344,7 +344,10 @@ void LmsDriver::step() {
   }
   now = clock_->now();
   if (state_ == DriverState::kStreaming) {
-    if (now - last_scan_ > cfg_.stream_timeout) {
+    // Silence is judged against the line: at 9600 baud one 361-beam telegram takes 0.76 s.
+    const double beams = cfg_.angle_deg * 100.0 / cfg_.resolution_centideg + 1.0;
+    const Nanos line = static_cast<Nanos>((2.0 * beams + 10.0) * serial::byte_time_s(stream_->baud()) * 1e9);
+    if (now - last_scan_ > cfg_.stream_timeout + 2 * line) {
       ++counters_.timeouts;
       ++counters_.reconnects;
       enter(DriverState::kSearching, "no scan for %lld ms", static_cast<long long>((now - last_scan_) / kNanosPerMilli));

@@ -30,7 +30,7 @@ struct LmsDriverConfig {
   Nanos probe_timeout = 250 * kNanosPerMilli;     // per baud rate while searching
   Nanos reply_timeout = 500 * kNanosPerMilli;     // ordinary request -> reply
   Nanos mode_timeout = 3 * kNanosPerSecond;       // mode changes (installation mode is slow)
-  Nanos stream_timeout = 500 * kNanosPerMilli;    // no scan for this long while streaming: reconnect
+  Nanos stream_timeout = 500 * kNanosPerMilli;    // no scan for this long (plus two telegram line times): reconnect
   Nanos baud_settle = 30 * kNanosPerMilli;        // after switching the host's rate
   Nanos reopen_backoff = 500 * kNanosPerMilli;    // between attempts to reopen a broken link
   int retries = 3;                                // per configuration step
