@@ -120,7 +120,9 @@ void ConfigDocument::finish() const {
   collect_paths(*table_, "", &all);
   std::ostringstream errors;
   int count = 0;
-  for (const auto& [path, node] : all) {
+  for (const auto& entry : all) {
+    const std::string& path = entry.first;  // (named, not bound: lambdas below capture it)
+    const toml::node* node = entry.second;
     if (used_->count(path)) continue;
     // A table whose keys were all read counts as used (it has no value of its own).
     if (node->is_table() || (node->is_array() && node->as_array()->is_array_of_tables())) {
@@ -131,8 +133,8 @@ void ConfigDocument::finish() const {
     }
     // Skip children of an unknown table: the table itself is reported.
     bool parent_unknown = false;
-    for (const auto& [other, n2] : all) {
-      (void)n2;
+    for (const auto& other_entry : all) {
+      const std::string& other = other_entry.first;
       if (other.size() < path.size() && path.compare(0, other.size(), other) == 0 &&
           (path[other.size()] == '.' || path[other.size()] == '[') && !used_->count(other)) {
         const bool other_has_used_child = std::any_of(used_->begin(), used_->end(), [&](const std::string& u) {

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs Cairn's benchmarks beside their peer baselines, in one go, and prints the ratios.
 # Installs the peers first (MRPT from Debian: scripts/setup-deps.sh --peers).
-#   scripts/bench.sh [dds|ccml|all]   (default all)
+#   scripts/bench.sh [dds|lms|ccml|all]   (default all)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 what=${1:-all}
@@ -12,6 +12,10 @@ export CYCLONEDDS_URI="file://$PWD/config/dds/loopback.xml"   # DDS stays on loo
 if [[ $what == dds || $what == all ]]; then
   echo "== DDS: Cairn's layer vs Cyclone's ddsperf (10 s each)"
   tests/bench/dds_vs_ddsperf.sh "$B/cairn-bench-dds" 10
+fi
+if [[ $what == lms || $what == all ]]; then
+  echo "== LMS2xx codec: CRC baseline, stream throughput, per-scan latency"
+  "$B/cairn-bench-lms-codec"
 fi
 if [[ $what == ccml || $what == all ]]; then
   echo "== CCML: Cairn's EKF vs MRPT's CRangeBearingKFSLAM2D"

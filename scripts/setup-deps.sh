@@ -9,7 +9,7 @@
 set -euo pipefail
 
 core=(
-  ca-certificates cmake ninja-build g++ clang pkg-config file bc
+  ca-certificates cmake ninja-build g++ clang libclang-rt-14-dev pkg-config file bc
   libeigen3-dev
   cyclonedds-dev cyclonedds-tools
   libmodbus-dev libserialport-dev

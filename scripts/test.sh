@@ -26,5 +26,7 @@ if ((quick == 0)); then
   scripts/build.sh tsan
   echo "== test: unit and integration tests under TSan"
   TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1" ctest --preset tsan -j2 -LE 'bench|slow'
+  echo "== test: fuzz targets (clang libFuzzer + ASan/UBSan), 30 s each"
+  scripts/fuzz.sh 30
 fi
 echo "== test: all passed in $(( $(date +%s) - start )) s"

@@ -100,7 +100,6 @@ void LmsDevice::handle(const Telegram& t, Nanos now) {
       return;
     }
     case kCmdVariant: {
-      VariantReply v;
       bool ok = t.data.size() == 4;
       std::uint16_t angle = 0, res = 0;
       if (ok) {

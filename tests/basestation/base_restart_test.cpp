@@ -6,7 +6,6 @@
 
 #include <filesystem>
 #include <fstream>
-#include <regex>
 
 #include "tests/support/subprocess.hpp"
 
@@ -20,14 +19,15 @@ struct Counts {
   long odometry = -1, features = -1;
 };
 
+// "... final fusion: odometry N applied (...), features M applied (...)"
 Counts parse_final(const std::string& out) {
-  std::smatch m;
   Counts c;
-  const std::regex re("final fusion: odometry ([0-9]+) applied .*features ([0-9]+) applied");
-  if (std::regex_search(out, m, re)) {
-    c.odometry = std::stol(m[1]);
-    c.features = std::stol(m[2]);
-  }
+  const auto at = out.find("final fusion: odometry ");
+  if (at == std::string::npos) return c;
+  const auto feat = out.find("features ", at);
+  if (feat == std::string::npos) return c;
+  c.odometry = std::atol(out.c_str() + at + std::string("final fusion: odometry ").size());
+  c.features = std::atol(out.c_str() + feat + 9);
   return c;
 }
 
