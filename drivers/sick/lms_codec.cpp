@@ -193,27 +193,28 @@ static std::size_t next_start(const std::uint8_t* buf, std::size_t have, std::ui
   return have;
 }
 
+// Drops the buffer's first byte and everything up to the next plausible telegram start.
+void Parser::resync() {
+  const std::size_t s = next_start(buf_.data(), have_, address_);
+  counters_.skipped_bytes += s;
+  ++counters_.resyncs;
+  std::memmove(buf_.data(), buf_.data() + s, have_ - s);
+  have_ -= s;
+}
+
 bool Parser::try_complete() {
   if (have_ < 4) return false;
   const std::size_t len = static_cast<std::size_t>(buf_[2] | (buf_[3] << 8));
   if (len == 0 || len > kMaxPayload) {
     ++counters_.bad_length;
-    const std::size_t s = next_start(buf_.data(), have_, address_);
-    counters_.skipped_bytes += s;
-    ++counters_.resyncs;
-    std::memmove(buf_.data(), buf_.data() + s, have_ - s);
-    have_ -= s;
+    resync();
     return false;
   }
   if (have_ < len + 6) return false;
   const std::uint16_t crc = static_cast<std::uint16_t>(buf_[len + 4] | (buf_[len + 5] << 8));
   if (crc != crc16({buf_.data(), len + 4})) {
     ++counters_.crc_errors;
-    const std::size_t s = next_start(buf_.data(), have_, address_);
-    counters_.skipped_bytes += s;
-    ++counters_.resyncs;
-    std::memmove(buf_.data(), buf_.data() + s, have_ - s);
-    have_ -= s;
+    resync();
     return false;
   }
   telegram_.address = buf_[1];

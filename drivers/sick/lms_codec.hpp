@@ -176,6 +176,7 @@ class Parser {
 
  private:
   bool try_complete();
+  void resync();
   std::uint8_t address_;
   std::array<std::uint8_t, kMaxTelegram> buf_{};
   std::size_t have_ = 0;
