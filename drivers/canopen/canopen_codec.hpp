@@ -1,0 +1,101 @@
+// CANopen (CiA 301) frames as values: NMT, SYNC, heartbeat, EMCY, expedited and segmented
+// SDO, PDOs; abort and EMCY codes as text. Pure: frames in, typed values out; no I/O,
+// no clock, no heap. Facts: ../shared/docs/protocols.md §2.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+
+#include "drivers/can/can_port.hpp"
+
+namespace cairn::canopen {
+
+using can::Frame;
+
+// ---- COB-IDs
+inline constexpr std::uint32_t kCobNmt = 0x000, kCobSync = 0x080, kCobEmcy = 0x080;
+inline constexpr std::uint32_t kCobTpdo[4] = {0x180, 0x280, 0x380, 0x480};  // + node: drive -> master
+inline constexpr std::uint32_t kCobRpdo[4] = {0x200, 0x300, 0x400, 0x500};  // + node: master -> drive
+inline constexpr std::uint32_t kCobSdoTx = 0x580, kCobSdoRx = 0x600, kCobHeartbeat = 0x700;
+
+enum class NmtCommand : std::uint8_t { kStart = 0x01, kStop = 0x02, kPreOperational = 0x80, kResetNode = 0x81, kResetComm = 0x82 };
+enum class NmtState : std::uint8_t { kBootUp = 0x00, kStopped = 0x04, kOperational = 0x05, kPreOperational = 0x7F };
+const char* nmt_state_name(NmtState s);
+
+Frame nmt(NmtCommand cmd, std::uint8_t node);  // node 0 = all
+Frame sync(std::optional<std::uint8_t> counter = std::nullopt);
+Frame heartbeat(std::uint8_t node, NmtState state);
+
+/// What kind of frame a COB-ID is, and for which node.
+enum class Kind : std::uint8_t { kNmt, kSync, kEmcy, kTpdo, kRpdo, kSdoResponse, kSdoRequest, kHeartbeat, kOther };
+struct Classified {
+  Kind kind = Kind::kOther;
+  std::uint8_t node = 0;
+  std::uint8_t pdo = 0;  // 0..3 for PDOs
+};
+Classified classify(std::uint32_t cob_id);
+
+struct Heartbeat {
+  std::uint8_t node = 0;
+  NmtState state = NmtState::kBootUp;
+};
+std::optional<Heartbeat> decode_heartbeat(const Frame& f);
+
+struct Emcy {
+  std::uint8_t node = 0;
+  std::uint16_t code = 0;  // 0x0000 = error reset / no error
+  std::uint8_t error_register = 0;
+  std::array<std::uint8_t, 5> vendor{};
+};
+std::optional<Emcy> decode_emcy(const Frame& f);
+Frame encode_emcy(std::uint8_t node, std::uint16_t code, std::uint8_t error_register);
+/// The CiA 301 / 402 class of an EMCY code ("current", "voltage", "temperature", ...).
+const char* emcy_text(std::uint16_t code);
+
+// ---- SDO (client side builds requests and reads responses; the server the reverse)
+inline constexpr std::uint8_t kSdoAbort = 0x80;
+const char* sdo_abort_text(std::uint32_t code);
+
+struct SdoAddress {
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+};
+
+/// Expedited download (write) of 1..4 bytes.
+Frame sdo_download(std::uint8_t node, SdoAddress a, std::span<const std::uint8_t> data);
+Frame sdo_upload(std::uint8_t node, SdoAddress a);
+Frame sdo_abort(std::uint32_t cob_id, SdoAddress a, std::uint32_t code);
+/// Segment requests of a segmented transfer (toggle t).
+Frame sdo_upload_segment(std::uint8_t node, bool toggle);
+Frame sdo_download_initiate(std::uint8_t node, SdoAddress a, std::uint32_t size);  // segmented, size indicated
+Frame sdo_download_segment(std::uint8_t node, bool toggle, std::span<const std::uint8_t> chunk, bool last);
+
+struct SdoResponse {
+  enum class Type : std::uint8_t {
+    kDownloadAck, kUploadExpedited, kUploadSegmentedInit, kUploadSegment, kDownloadSegmentAck, kAbort, kInvalid
+  };
+  Type type = Type::kInvalid;
+  SdoAddress address;
+  std::uint32_t value = 0;             // expedited data (LE) or segmented size
+  std::uint8_t size = 0;               // expedited: bytes valid; segment: bytes in `segment`
+  bool toggle = false, last = false;
+  std::array<std::uint8_t, 7> segment{};
+  std::uint32_t abort_code = 0;
+};
+SdoResponse decode_sdo_response(const Frame& f);
+
+// ---- PDO values (little-endian fields packed in order)
+struct PdoField {
+  std::uint8_t bits = 0;  // 8, 16, 32
+  bool is_signed = false;
+};
+/// Packs values into a PDO payload; false if they do not fit 8 bytes.
+bool pack_pdo(std::span<const PdoField> fields, std::span<const std::int64_t> values, Frame* f);
+bool unpack_pdo(const Frame& f, std::span<const PdoField> fields, std::span<std::int64_t> values);
+/// A mapping entry as written to 0x1600+k / 0x1A00+k: (index << 16) | (sub << 8) | bits.
+constexpr std::uint32_t mapping_entry(std::uint16_t index, std::uint8_t sub, std::uint8_t bits) {
+  return (static_cast<std::uint32_t>(index) << 16) | (static_cast<std::uint32_t>(sub) << 8) | bits;
+}
+
+}  // namespace cairn::canopen
