@@ -89,8 +89,9 @@ void Hub::send_to(const Client& c, const void* data, std::size_t n) {
            static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + c.addr.size()));
 }
 
-void Hub::inject_bus_off(std::uint16_t sender) {
+void Hub::inject_bus_off(std::uint16_t sender, Nanos hold) {
   std::lock_guard l(mutex_);
+  const Nanos until = MonotonicClock::instance().now() + hold;
   Frame err;
   err.id = Frame::kError | kErrBusOff;
   err.len = 8;
@@ -98,6 +99,7 @@ void Hub::inject_bus_off(std::uint16_t sender) {
   for (Client& c : clients_) {
     if (sender == 0 || c.sender == sender) {
       c.bus_off = true;
+      c.hold_until = until;
       send_to(c, w.bytes, sizeof w.bytes);
     }
   }
@@ -129,6 +131,14 @@ void Hub::run() {
     }
     if (it == clients_.end()) continue;  // not registered
     if (kind == kRestart) {
+      if (MonotonicClock::instance().now() < it->hold_until) {  // the fault persists: still bus-off
+        Frame b;
+        b.id = Frame::kError | kErrBusOff;
+        b.len = 8;
+        const Wire w = encode_wire(b, kFrame, 0);
+        send_to(*it, w.bytes, sizeof w.bytes);
+        continue;
+      }
       it->bus_off = false;
       Frame r;
       r.id = Frame::kError | kErrRestarted;
@@ -140,6 +150,7 @@ void Hub::run() {
     if (it->bus_off) continue;  // a bus-off node sends nothing
     // Deliver to everyone; the sender's copy is marked as its own (kind 4).
     for (const Client& c : clients_) {
+      if (c.bus_off) continue;  // a bus-off controller is off the bus: it hears nothing either
       buf[5] = c.addr == addr ? 4 : kFrame;
       send_to(c, buf, sizeof buf);
     }

@@ -30,7 +30,8 @@ class Hub {
   std::string uri() const { return "ucan:" + path_; }
 
   /// Puts the port that registered with `sender` into bus-off (or every port with sender 0).
-  void inject_bus_off(std::uint16_t sender);
+  /// For `hold` the fault persists (a shorted or open bus): restart requests are refused.
+  void inject_bus_off(std::uint16_t sender, Nanos hold = 0);
   std::uint64_t frames_forwarded() const { return forwarded_.load(); }
   std::size_t ports() const;
 
@@ -39,6 +40,7 @@ class Hub {
     std::string addr;  // abstract socket address (with the leading NUL)
     std::uint16_t sender = 0;
     bool bus_off = false;
+    Nanos hold_until = 0;
   };
   void run();
   void send_to(const Client& c, const void* data, std::size_t n);

@@ -1,0 +1,290 @@
+#include "drivers/canopen/drive_master.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+
+namespace cairn::canopen {
+
+const char* phase_name(NodePhase p) {
+  switch (p) {
+    case NodePhase::kWaitBoot: return "waiting for boot-up";
+    case NodePhase::kConfigure: return "configuring";
+    case NodePhase::kStart: return "starting";
+    case NodePhase::kEnable: return "enabling";
+    case NodePhase::kEnabled: return "operation enabled";
+    case NodePhase::kLost: return "lost";
+    case NodePhase::kFault: return "fault";
+  }
+  return "?";
+}
+
+DriveMaster::DriveMaster(can::Port* port, Clock* clock, const MasterConfig& cfg) : port_(port), clock_(clock), cfg_(cfg) {
+  const Nanos now = clock_->now();
+  for (std::uint8_t id : cfg_.nodes) {
+    if (!id || count_ >= kMaxDrives) continue;
+    Node& n = nodes_[count_++];
+    n.id = id;
+    n.sdo = SdoClient(id, cfg_.sdo_timeout, cfg_.sdo_retries);
+    n.phase_since = now;
+    n.backoff = cfg_.recovery_backoff;
+    // A node that booted before us sends no boot-up: ask every node to reset communication.
+  }
+  send(nmt(NmtCommand::kResetComm, 0));
+  next_sync_ = now + cfg_.sync_period;
+}
+
+const TransitionEvent& DriveMaster::event(std::size_t i) const {
+  const std::size_t first = events_total_ > events_.size() ? events_total_ - events_.size() : 0;
+  return events_[(first + i) % events_.size()];
+}
+
+void DriveMaster::set_phase(Node& n, NodePhase p, const char* reason) {
+  if (n.phase == p) return;
+  n.phase = p;
+  n.phase_since = clock_->now();
+  TransitionEvent& e = events_[events_total_++ % events_.size()];
+  e.time = n.phase_since;
+  e.node = n.id;
+  e.to = p;
+  std::snprintf(e.reason.data(), e.reason.size(), "%s", reason);
+}
+
+void DriveMaster::send(const can::Frame& f) {
+  port_->send(f, clock_->now() + cfg_.io_slice);
+}
+
+bool DriveMaster::all_enabled() const {
+  if (port_->bus_off()) return false;
+  for (std::size_t i = 0; i < count_; ++i) {
+    if (nodes_[i].phase != NodePhase::kEnabled) return false;
+  }
+  return count_ > 0;
+}
+
+void DriveMaster::command(std::span<const std::int32_t> v) {
+  for (std::size_t i = 0; i < count_ && i < v.size(); ++i) nodes_[i].target = v[i];
+}
+
+void DriveMaster::disable_all(const char* reason) {
+  disabled_ = true;
+  for (std::size_t i = 0; i < count_; ++i) {
+    nodes_[i].target = 0;
+    if (nodes_[i].phase == NodePhase::kEnabled) set_phase(nodes_[i], NodePhase::kEnable, reason);
+  }
+  send_sync_cycle(clock_->now());  // the zero / disable goes out now, not at the next SYNC
+}
+
+void DriveMaster::enable_all() { disabled_ = false; }
+
+// The configuration sequence: heartbeat, mode, RPDO1 (controlword + target velocity),
+// TPDO1 (statusword + velocity actual), TPDO2 (position actual), each PDO remapped by
+// the standard procedure (disable, clear count, entries, count, enable).
+bool DriveMaster::next_config(Node& n) {
+  const std::uint32_t id = n.id;
+  struct W {
+    std::uint16_t index;
+    std::uint8_t sub;
+    std::uint32_t value;
+    std::uint8_t size;
+  };
+  const W steps[] = {
+      {0x1017, 0, cfg_.heartbeat_ms, 2},
+      {0x6060, 0, static_cast<std::uint32_t>(cfg_.mode), 1},
+      {0x1400, 1, 0x80000000u | (0x200 + id), 4}, {0x1600, 0, 0, 1},
+      {0x1600, 1, mapping_entry(0x6040, 0, 16), 4}, {0x1600, 2, mapping_entry(0x60FF, 0, 32), 4},
+      {0x1600, 0, 2, 1}, {0x1400, 2, 1, 1}, {0x1400, 1, 0x200 + id, 4},
+      {0x1800, 1, 0x80000000u | (0x180 + id), 4}, {0x1A00, 0, 0, 1},
+      {0x1A00, 1, mapping_entry(0x6041, 0, 16), 4}, {0x1A00, 2, mapping_entry(0x606C, 0, 32), 4},
+      {0x1A00, 0, 2, 1}, {0x1800, 2, 1, 1}, {0x1800, 1, 0x180 + id, 4},
+      {0x1801, 1, 0x80000000u | (0x280 + id), 4}, {0x1A01, 0, 0, 1},
+      {0x1A01, 1, mapping_entry(0x6064, 0, 32), 4}, {0x1A01, 0, 1, 1}, {0x1801, 2, 1, 1}, {0x1801, 1, 0x280 + id, 4},
+  };
+  if (n.config_step >= static_cast<int>(std::size(steps))) return false;
+  const W& w = steps[n.config_step];
+  n.sdo.download_u32({w.index, w.sub}, w.value, w.size);
+  return true;
+}
+
+void DriveMaster::dispatch(const can::Frame& f, Nanos now) {
+  if (f.is_error()) return;  // bus state is read from the port
+  const Classified c = classify(f.id);
+  for (std::size_t i = 0; i < count_; ++i) {
+    Node& n = nodes_[i];
+    if (c.node != n.id) continue;
+    switch (c.kind) {
+      case Kind::kHeartbeat: {
+        const auto hb = decode_heartbeat(f);
+        if (!hb) break;
+        n.last_heartbeat = now;
+        n.nmt = hb->state;
+        if (hb->state == NmtState::kBootUp) {
+          set_phase(n, NodePhase::kConfigure, "boot-up received: configuring");
+          n.config_step = 0;
+          n.sdo.reset();
+          next_config(n);
+        } else if (n.phase == NodePhase::kLost) {
+          set_phase(n, NodePhase::kWaitBoot, "heartbeat is back: resetting the node");
+          send(nmt(NmtCommand::kResetComm, n.id));
+        }
+        break;
+      }
+      case Kind::kSdoResponse:
+        n.sdo.on_frame(f, now);
+        break;
+      case Kind::kEmcy:
+        if (const auto e = decode_emcy(f)) {
+          n.last_emcy = e->code;
+          if (e->code != 0 && n.phase != NodePhase::kFault) {
+            char reason[72];
+            std::snprintf(reason, sizeof reason, "EMCY 0x%04X: %s", e->code, emcy_text(e->code));
+            set_phase(n, NodePhase::kFault, reason);
+            n.retry_at = now + n.backoff;
+          }
+        }
+        break;
+      case Kind::kTpdo: {
+        if (c.pdo == 0 && f.len >= 6) {
+          n.feedback.statusword = static_cast<std::uint16_t>(f.data[0] | (f.data[1] << 8));
+          n.feedback.velocity = static_cast<std::int32_t>(static_cast<std::uint32_t>(f.data[2]) | (static_cast<std::uint32_t>(f.data[3]) << 8) |
+                                                          (static_cast<std::uint32_t>(f.data[4]) << 16) | (static_cast<std::uint32_t>(f.data[5]) << 24));
+          n.feedback.stamp = f.stamp;
+          ++n.feedback.updates;
+        } else if (c.pdo == 1 && f.len >= 4) {
+          n.feedback.position = static_cast<std::int32_t>(static_cast<std::uint32_t>(f.data[0]) | (static_cast<std::uint32_t>(f.data[1]) << 8) |
+                                                          (static_cast<std::uint32_t>(f.data[2]) << 16) | (static_cast<std::uint32_t>(f.data[3]) << 24));
+        }
+        break;
+      }
+      default:
+        break;
+    }
+  }
+}
+
+void DriveMaster::supervise(Node& n, Nanos now) {
+  // Heartbeat consumer (once the node was configured to produce one).
+  if (n.phase >= NodePhase::kStart && n.phase <= NodePhase::kFault && n.phase != NodePhase::kLost &&
+      now - n.last_heartbeat > cfg_.heartbeat_timeout) {
+    set_phase(n, NodePhase::kLost, "heartbeat timeout: commanding zero");
+    n.retry_at = now + n.backoff;
+    return;
+  }
+  if (auto f = n.sdo.poll(now)) send(*f);
+  switch (n.phase) {
+    case NodePhase::kWaitBoot:
+      if (now - n.phase_since > cfg_.boot_timeout) {
+        set_phase(n, NodePhase::kWaitBoot, "no boot-up: resetting the node again");
+        n.phase_since = now;
+        send(nmt(NmtCommand::kResetComm, n.id));
+      }
+      return;
+    case NodePhase::kConfigure:
+      if (n.sdo.status() == SdoClient::Status::kDone) {
+        ++n.config_step;
+        n.sdo.reset();
+        if (!next_config(n)) {
+          set_phase(n, NodePhase::kStart, "configured: starting (NMT)");
+          n.last_heartbeat = now;
+          send(nmt(NmtCommand::kStart, n.id));
+        }
+      } else if (n.sdo.status() == SdoClient::Status::kFailed) {
+        char reason[72];
+        std::snprintf(reason, sizeof reason, "SDO failed: %s", n.sdo.error());
+        set_phase(n, NodePhase::kLost, reason);
+        n.retry_at = now + n.backoff;
+      }
+      return;
+    case NodePhase::kStart:
+      if (n.nmt == NmtState::kOperational) set_phase(n, NodePhase::kEnable, "operational: enabling the drive");
+      return;
+    case NodePhase::kEnable:
+      // Only a statusword received after entering this phase counts (not a stale one).
+      if (n.feedback.stamp > n.phase_since && cia402::decode(n.feedback.statusword) == cia402::State::kOperationEnabled &&
+          !disabled_ && !port_->bus_off()) {
+        set_phase(n, NodePhase::kEnabled, "operation enabled");
+        n.backoff = cfg_.recovery_backoff;
+      }
+      return;
+    case NodePhase::kEnabled:
+      if (cia402::decode(n.feedback.statusword) != cia402::State::kOperationEnabled) {
+        set_phase(n, cia402::decode(n.feedback.statusword) == cia402::State::kFault ? NodePhase::kFault : NodePhase::kEnable,
+                  "drive left operation enabled");
+        n.retry_at = now + n.backoff;
+      }
+      return;
+    case NodePhase::kFault:
+      // Fault reset is attempted by the controlword planner in the SYNC cycle after the back-off.
+      if (now >= n.retry_at && cia402::decode(n.feedback.statusword) != cia402::State::kFault) {
+        ++recoveries_;
+        n.backoff = std::min(n.backoff * 2, cfg_.recovery_backoff_max);
+        set_phase(n, NodePhase::kEnable, "fault cleared: enabling");
+      }
+      return;
+    case NodePhase::kLost:
+      if (now >= n.retry_at) {
+        ++recoveries_;
+        n.backoff = std::min(n.backoff * 2, cfg_.recovery_backoff_max);
+        n.retry_at = now + n.backoff;
+        send(nmt(NmtCommand::kResetComm, n.id));  // a live node answers with boot-up
+      }
+      return;
+  }
+}
+
+void DriveMaster::send_sync_cycle(Nanos now) {
+  const bool go = all_enabled() && !disabled_;
+  for (std::size_t i = 0; i < count_; ++i) {
+    Node& n = nodes_[i];
+    if (n.phase < NodePhase::kEnable || n.phase == NodePhase::kLost) continue;
+    const cia402::State s = cia402::decode(n.feedback.statusword);
+    std::uint16_t cw = n.last_cw;
+    if (disabled_) {
+      cw = cia402::cw::kSwitchOn;  // disable operation: stops the motor, keeps it switched on
+    } else if (n.phase == NodePhase::kFault && now < n.retry_at) {
+      cw = cia402::cw::kDisableVoltage;
+    } else {
+      cw = cia402::next_controlword(s, cia402::State::kOperationEnabled, n.last_cw, cfg_.quirks);
+    }
+    n.sent_velocity = go ? n.target : 0;
+    Frame f;
+    const PdoField fields[] = {{16, false}, {32, true}};
+    const std::int64_t values[] = {cw, n.sent_velocity};
+    pack_pdo(fields, values, &f);
+    f.id = kCobRpdo[0] + n.id;
+    send(f);
+    n.last_cw = cw;
+  }
+  send(sync());
+  ++syncs_;
+}
+
+void DriveMaster::step() {
+  Nanos now = clock_->now();
+  // Bus-off: restart the port with back-off; everything stays commanded zero meanwhile.
+  if (port_->bus_off()) {
+    if (now >= bus_retry_at_) {
+      std::string err;
+      port_->restart(&err);
+      bus_retry_at_ = now + cfg_.recovery_backoff;
+      for (std::size_t i = 0; i < count_; ++i) {
+        if (nodes_[i].phase == NodePhase::kEnabled) set_phase(nodes_[i], NodePhase::kEnable, "bus-off: restarting the bus");
+      }
+    }
+  }
+  can::Frame f;
+  const Nanos until = now + cfg_.io_slice;
+  while (port_->receive(&f, std::max<Nanos>(0, std::min(until, next_sync_) - clock_->now()))) {
+    dispatch(f, clock_->now());
+    if (clock_->now() >= next_sync_) break;
+  }
+  now = clock_->now();
+  for (std::size_t i = 0; i < count_; ++i) supervise(nodes_[i], now);
+  if (now >= next_sync_) {
+    next_sync_ += cfg_.sync_period;
+    if (next_sync_ < now) next_sync_ = now + cfg_.sync_period;  // fell behind: do not burst
+    send_sync_cycle(now);
+  }
+}
+
+}  // namespace cairn::canopen
