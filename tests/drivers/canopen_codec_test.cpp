@@ -194,3 +194,35 @@ TEST(Cia402, PlannerReachesOperationEnabledFromEveryState) {
 
 }  // namespace
 }  // namespace cairn::canopen
+
+#include "drivers/canopen/diff_drive.hpp"
+
+namespace cairn::canopen {
+namespace {
+
+TEST(DiffDrive, CommandsAndOdometryRoundTrip) {
+  DiffDriveGeometry g;
+  g.wheel_radius_m = 0.1;
+  g.track_m = 0.5;
+  g.gear_ratio = 20;
+  g.encoder_counts_per_rev = 4096;
+  // 0.5 m/s straight: 0.5 / 0.1 = 5 rad/s at the wheel = 100 rad/s at the motor.
+  WheelCommand c = wheel_command(g, 0.5, 0.0);
+  EXPECT_NEAR(c.left, 5.0 * 4096 * 20 / (2 * std::numbers::pi), 1);
+  EXPECT_EQ(c.right, -c.left);  // mirrored motor
+  // Turning on the spot: wheels opposite, same magnitude.
+  c = wheel_command(g, 0.0, 1.0);
+  EXPECT_EQ(c.left, c.right);   // left backwards, right forwards (inverted sign)
+  EXPECT_LT(c.left, 0);
+  // Odometry inverts it, including across the 32-bit encoder wrap.
+  const std::int32_t prev = 2147483000;
+  const std::int32_t now = static_cast<std::int32_t>(static_cast<std::uint32_t>(prev) + 1304u);  // wraps
+  const WheelOdometry o = wheel_odometry(g, now, -now, prev, -prev, 1304, -1304);
+  const double m = 1304 * 0.1 / (4096 * 20 / (2 * std::numbers::pi));
+  EXPECT_NEAR(o.left_m, m, 1e-12);
+  EXPECT_NEAR(o.right_m, m, 1e-12);
+  EXPECT_NEAR(o.left_speed, m, 1e-12);
+}
+
+}  // namespace
+}  // namespace cairn::canopen
