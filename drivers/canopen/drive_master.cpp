@@ -260,6 +260,7 @@ void DriveMaster::send_sync_cycle(Nanos now) {
 }
 
 void DriveMaster::step() {
+  if (estop_request_.exchange(false, std::memory_order_acq_rel)) disable_all("e-stop");
   Nanos now = clock_->now();
   // Bus-off: restart the port with back-off; everything stays commanded zero meanwhile.
   if (port_->bus_off()) {
@@ -276,8 +277,9 @@ void DriveMaster::step() {
   const Nanos until = now + cfg_.io_slice;
   while (port_->receive(&f, std::max<Nanos>(0, std::min(until, next_sync_) - clock_->now()))) {
     dispatch(f, clock_->now());
-    if (clock_->now() >= next_sync_) break;
+    if (clock_->now() >= next_sync_ || estop_request_.load(std::memory_order_acquire)) break;
   }
+  if (estop_request_.exchange(false, std::memory_order_acq_rel)) disable_all("e-stop");
   now = clock_->now();
   for (std::size_t i = 0; i < count_; ++i) supervise(nodes_[i], now);
   if (now >= next_sync_) {

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <span>
 
@@ -59,8 +60,11 @@ class DriveMaster {
   void step();
   /// Target velocities (increments/s) per drive slot; applied only while all are enabled.
   void command(std::span<const std::int32_t> velocities);
-  /// Immediately command zero and disable operation (e-stop fast path).
+  /// Immediately command zero and disable operation (call from the master's own thread).
   void disable_all(const char* reason);
+  /// The e-stop fast path, callable from any thread without a lock: the master's next
+  /// step() (within io_slice) disables every drive and sends it at once.
+  void request_estop() { estop_request_.store(true, std::memory_order_release); }
   void enable_all();
 
   bool all_enabled() const;
@@ -103,6 +107,7 @@ class DriveMaster {
   Nanos next_sync_ = 0;
   std::uint64_t syncs_ = 0, recoveries_ = 0;
   bool disabled_ = false;
+  std::atomic<bool> estop_request_{false};
   Nanos bus_retry_at_ = 0;
   std::array<TransitionEvent, 64> events_{};
   std::size_t events_total_ = 0;

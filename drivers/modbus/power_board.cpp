@@ -1,0 +1,133 @@
+#include "drivers/modbus/power_board.hpp"
+
+#include <modbus/modbus.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+
+namespace cairn::modbus {
+
+bool decode_power(const std::uint16_t regs[4], bool estop, const RegisterMap& m, PowerState* out) {
+  PowerState s;
+  s.voltage = regs[0] * m.voltage_scale;
+  s.current = static_cast<std::int16_t>(regs[1]) * m.current_scale;
+  s.soc = regs[2] * m.soc_scale;
+  s.temperature = static_cast<std::int16_t>(regs[3]) * m.temperature_scale;
+  s.estop = estop;
+  // Plausibility: a reading outside these ranges is a wiring, map or device error.
+  if (!(s.voltage >= 0 && s.voltage <= 100 && std::abs(s.current) <= 300 && s.soc >= 0 && s.soc <= 100.0001 &&
+        s.temperature >= -40 && s.temperature <= 150)) {
+    return false;
+  }
+  s.valid = true;
+  *out = s;
+  return true;
+}
+
+std::unique_ptr<PowerBoard> PowerBoard::open(const std::string& uri, const RegisterMap& map, Nanos response_timeout,
+                                             std::string* error) {
+  modbus_t* ctx = nullptr;
+  if (uri.rfind("tcp:", 0) == 0) {
+    const std::string rest = uri.substr(4);
+    const auto c = rest.rfind(':');
+    if (c == std::string::npos) {
+      *error = "'" + uri + "': expected tcp:HOST:PORT";
+      return nullptr;
+    }
+    ctx = modbus_new_tcp(rest.substr(0, c).c_str(), std::stoi(rest.substr(c + 1)));
+  } else if (uri.rfind("rtu:", 0) == 0) {
+    const std::string rest = uri.substr(4);
+    const auto c = rest.rfind(':');
+    if (c == std::string::npos) {
+      *error = "'" + uri + "': expected rtu:DEVICE:BAUD";
+      return nullptr;
+    }
+    ctx = modbus_new_rtu(rest.substr(0, c).c_str(), std::stoi(rest.substr(c + 1)), 'N', 8, 1);
+  } else {
+    *error = "'" + uri + "': expected tcp:HOST:PORT or rtu:DEVICE:BAUD";
+    return nullptr;
+  }
+  if (!ctx) {
+    *error = uri + ": " + modbus_strerror(errno);
+    return nullptr;
+  }
+  modbus_set_slave(ctx, map.slave);
+  const auto us = static_cast<std::uint32_t>(response_timeout / kNanosPerMicro);
+  modbus_set_response_timeout(ctx, us / 1000000, us % 1000000);  // libmodbus' default is 0.5 s
+  modbus_set_byte_timeout(ctx, 0, 50000);
+  if (modbus_connect(ctx) != 0) {
+    *error = uri + ": cannot connect to the power board: " + modbus_strerror(errno);
+    modbus_free(ctx);
+    return nullptr;
+  }
+  return std::unique_ptr<PowerBoard>(new PowerBoard(ctx, uri, map));
+}
+
+PowerBoard::~PowerBoard() {
+  modbus_close(ctx_);
+  modbus_free(ctx_);
+}
+
+void PowerBoard::note_failure() {
+  ++counters_.errors;
+  if (errno == ETIMEDOUT) ++counters_.timeouts;
+  if (errno == ECONNRESET || errno == EPIPE || errno == EBADF || errno == ECONNREFUSED) {
+    // The link broke: reconnect (TCP server restarted, USB adapter replugged).
+    modbus_close(ctx_);
+    if (modbus_connect(ctx_) == 0) ++counters_.reconnects;
+  } else {
+    modbus_flush(ctx_);  // resynchronise RTU framing after a bad or late reply
+  }
+}
+
+bool PowerBoard::poll(PowerState* out, std::string* error) {
+  ++counters_.polls;
+  std::uint16_t regs[4];
+  std::uint8_t estop = 0;
+  // One read covers the four registers when they are consecutive (the usual map).
+  const int lo = std::min({map_.voltage, map_.current, map_.soc, map_.temperature});
+  const int hi = std::max({map_.voltage, map_.current, map_.soc, map_.temperature});
+  std::uint16_t block[125];
+  if (hi - lo >= 125 || modbus_read_input_registers(ctx_, lo, hi - lo + 1, block) != hi - lo + 1) {
+    *error = uri_ + ": reading input registers: " + modbus_strerror(errno);
+    note_failure();
+    return false;
+  }
+  regs[0] = block[map_.voltage - lo];
+  regs[1] = block[map_.current - lo];
+  regs[2] = block[map_.soc - lo];
+  regs[3] = block[map_.temperature - lo];
+  if (modbus_read_input_bits(ctx_, map_.estop, 1, &estop) != 1) {
+    *error = uri_ + ": reading the e-stop input: " + modbus_strerror(errno);
+    note_failure();
+    return false;
+  }
+  if (!decode_power(regs, estop != 0, map_, out)) {
+    ++counters_.invalid;
+    *error = uri_ + ": implausible power reading (check the register map)";
+    return false;
+  }
+  out->stamp = MonotonicClock::instance().now();
+  return true;
+}
+
+int PowerBoard::estop_pressed() {
+  std::uint8_t bit = 0;
+  if (modbus_read_input_bits(ctx_, map_.estop, 1, &bit) != 1) {
+    note_failure();
+    return -1;
+  }
+  return bit ? 1 : 0;
+}
+
+bool PowerBoard::set_motor_power(bool on, std::string* error) {
+  if (modbus_write_bit(ctx_, map_.motor_relay, on ? 1 : 0) != 1) {
+    *error = uri_ + ": switching the motor relay: " + modbus_strerror(errno);
+    note_failure();
+    return false;
+  }
+  return true;
+}
+
+}  // namespace cairn::modbus
