@@ -129,6 +129,24 @@ void DriveNode::handle_controlword(std::uint16_t cw) {
   }
 }
 
+void DriveNode::inject_garbage(std::size_t n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  const std::uint32_t own[] = {0x180u + cfg_.node, 0x280u + cfg_.node, 0x700u + cfg_.node, 0x080u + cfg_.node, 0x580u + cfg_.node};
+  for (std::size_t i = 0; i < n; ++i) {
+    Frame f;
+    if (i % 2) {
+      f.id = 0x7E0 + static_cast<std::uint32_t>(rng() % 0x1F);  // foreign traffic outside CANopen's node range
+      f.len = static_cast<std::uint8_t>(rng() % 9);
+    } else {
+      f.id = own[rng() % 5];
+      f.len = static_cast<std::uint8_t>(1 + rng() % 3);  // too short for any of them (SDO 8, EMCY 8, TPDO 4/6)
+      if (f.id == 0x700u + cfg_.node) f.len = 3;         // a heartbeat is exactly 1 byte
+    }
+    for (auto& b : f.data) b = static_cast<std::uint8_t>(rng());
+    send(f);
+  }
+}
+
 void DriveNode::over_current(Nanos now) {
   (void)now;
   state_ = State::kFault;

@@ -43,6 +43,9 @@ class DriveNode {
   // Faults.
   void over_current(Nanos now);
   void set_silent(bool s) { silent_ = s; }
+  /// Garbage on the bus: foreign frames, and malformed frames on this node's own COB-IDs
+  /// (a TPDO, heartbeat, EMCY or SDO response of the wrong length) that decoders must reject.
+  void inject_garbage(std::size_t n, std::uint64_t seed);
   bool silent() const { return silent_; }
 
   // Observation (tests, the simulated robot).

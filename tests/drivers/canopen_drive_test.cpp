@@ -177,3 +177,53 @@ TEST(CanopenDrives, DisableAllReachesTheDrivesWithinOneControlPeriod) {
 
 }  // namespace
 }  // namespace cairn
+
+#include "drivers/canopen/diff_drive.hpp"
+#include "hil/robot/diff_robot.hpp"
+
+namespace cairn {
+namespace {
+
+TEST(CanopenDrives, GarbageFramesAreSurvived) {
+  Bench b;
+  ASSERT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
+  for (auto& d : b.drives_) d->with_node([](hil::DriveNode& n) { return (n.inject_garbage(300, 7), 0); });
+  usleep(300000);
+  EXPECT_TRUE(b.enabled()) << b.events();
+  const auto fb = b.master([](canopen::DriveMaster& m) { return m.feedback(0); });
+  EXPECT_EQ(cia402::decode(fb.statusword), cia402::State::kOperationEnabled);
+}
+
+TEST(CanopenDrives, TwoDrivesMoveASimulatedRobotInTheWorld) {
+  Bench b;
+  ASSERT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
+  hil::World world = hil::World::parse("box 0 0 20 20\n", "hall");
+  canopen::DiffDriveGeometry g;
+  hil::DiffRobot robot(1, g, {5, 5, 0}, 0.3, &world);
+  auto drive_for = [&](double v, double w, double seconds) {
+    const canopen::WheelCommand c = canopen::wheel_command(g, v, w);
+    const std::int32_t cmd[] = {c.left, c.right};
+    b.master([&](canopen::DriveMaster& m) { return (m.command(cmd), 0); });
+    const Nanos end = MonotonicClock::instance().now() + seconds_to_nanos(seconds);
+    Nanos last = MonotonicClock::instance().now();
+    while (MonotonicClock::instance().now() < end) {
+      usleep(5000);
+      const Nanos now = MonotonicClock::instance().now();
+      const double l = b.drives_[0]->with_node([](hil::DriveNode& n) { return n.velocity(); });
+      const double r = b.drives_[1]->with_node([](hil::DriveNode& n) { return n.velocity(); });
+      robot.step(l, r, nanos_to_seconds(now - last));
+      last = now;
+    }
+  };
+  drive_for(0.5, 0.0, 2.0);
+  EXPECT_NEAR(robot.pose().x, 6.0, 0.1);  // ~1 m ahead (minus the acceleration ramp)
+  EXPECT_NEAR(robot.pose().y, 5.0, 0.02);
+  drive_for(0.0, 0.5, 2.0);                // turn on the spot
+  EXPECT_NEAR(robot.pose().theta, 1.0, 0.1);
+  drive_for(0.0, 0.0, 0.3);
+  std::printf("robot after 1 m straight and a 1 rad turn: (%.3f, %.3f, %.3f)\n", robot.pose().x, robot.pose().y,
+              robot.pose().theta);
+}
+
+}  // namespace
+}  // namespace cairn

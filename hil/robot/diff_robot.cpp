@@ -1,0 +1,30 @@
+#include "hil/robot/diff_robot.hpp"
+
+#include <cmath>
+
+namespace cairn::hil {
+
+void DiffRobot::step(double left_motor, double right_motor, double dt) {
+  const double m_per_count = g_.wheel_radius_m / g_.counts_per_wheel_rad();
+  const double vl = left_motor * m_per_count;
+  const double vr = (g_.right_inverted ? -right_motor : right_motor) * m_per_count;
+  const double v = 0.5 * (vl + vr), w = (vr - vl) / g_.track_m;
+  // Exact arc for constant (v, w) over dt.
+  Pose2 delta;
+  if (std::abs(w) < 1e-9) {
+    delta = {v * dt, 0, 0};
+  } else {
+    delta = {v / w * std::sin(w * dt), v / w * (1 - std::cos(w * dt)), w * dt};
+  }
+  const Pose2 next = compose(pose_, delta);
+  if (world_->collides(next.translation(), radius_, id_)) {
+    ++bumps_;  // blocked: the wheels slip, the robot turns in place at most
+    pose_.theta = next.theta;
+    return;
+  }
+  odometer_ += std::abs(v * dt);
+  pose_ = next;
+  world_->set_robot(id_, pose_.translation(), radius_);
+}
+
+}  // namespace cairn::hil
