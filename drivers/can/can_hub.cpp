@@ -122,7 +122,7 @@ void Hub::run() {
     std::lock_guard l(mutex_);
     auto it = std::find_if(clients_.begin(), clients_.end(), [&](const Client& c) { return c.addr == addr; });
     if (kind == kHello) {
-      if (it == clients_.end()) clients_.push_back({addr, sender, false});
+      if (it == clients_.end()) clients_.push_back({addr, sender, false, f.data[0] != 0, 0});
       continue;
     }
     if (kind == kBye) {
@@ -151,7 +151,9 @@ void Hub::run() {
     // Deliver to everyone; the sender's copy is marked as its own (kind 4).
     for (const Client& c : clients_) {
       if (c.bus_off) continue;  // a bus-off controller is off the bus: it hears nothing either
-      buf[5] = c.addr == addr ? 4 : kFrame;
+      const bool own = c.addr == addr;
+      if (own && !c.wants_own) continue;
+      buf[5] = own ? 4 : kFrame;
       send_to(c, buf, sizeof buf);
     }
     forwarded_.fetch_add(1, std::memory_order_relaxed);
@@ -191,7 +193,9 @@ bool UcanPort::connect_hub(std::string* error) {
   }
   const int big = 1 << 20;
   setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &big, sizeof big);
-  const Wire w = encode_wire(Frame{}, kHello, sender_);
+  Frame hello;
+  hello.data[0] = receive_own_ ? 1 : 0;
+  const Wire w = encode_wire(hello, kHello, sender_);
   ::send(fd_, w.bytes, sizeof w.bytes, 0);
   bus_off_ = false;
   return true;

@@ -40,6 +40,7 @@ class Hub {
     std::string addr;  // abstract socket address (with the leading NUL)
     std::uint16_t sender = 0;
     bool bus_off = false;
+    bool wants_own = false;  // CAN_RAW_RECV_OWN_MSGS
     Nanos hold_until = 0;
   };
   void run();

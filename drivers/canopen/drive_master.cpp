@@ -273,11 +273,20 @@ void DriveMaster::step() {
       }
     }
   }
+  // First drain what is already queued (bounded, so the loop's cost is bounded); only
+  // when nothing is there wait for more, until the next SYNC is due or the slice ends.
   can::Frame f;
-  const Nanos until = now + cfg_.io_slice;
-  while (port_->receive(&f, std::max<Nanos>(0, std::min(until, next_sync_) - clock_->now()))) {
+  int drained = 0;
+  while (drained < kMaxFramesPerStep && port_->receive(&f, 0)) {
     dispatch(f, clock_->now());
-    if (clock_->now() >= next_sync_ || estop_request_.load(std::memory_order_acquire)) break;
+    ++drained;
+  }
+  if (drained == 0) {
+    const Nanos until = std::min(now + cfg_.io_slice, next_sync_);
+    while (!estop_request_.load(std::memory_order_acquire) && port_->receive(&f, std::max<Nanos>(0, until - clock_->now()))) {
+      dispatch(f, clock_->now());
+      if (++drained >= kMaxFramesPerStep || clock_->now() >= until) break;
+    }
   }
   if (estop_request_.exchange(false, std::memory_order_acq_rel)) disable_all("e-stop");
   now = clock_->now();

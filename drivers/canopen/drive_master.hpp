@@ -18,6 +18,7 @@
 namespace cairn::canopen {
 
 inline constexpr std::size_t kMaxDrives = 4;
+inline constexpr int kMaxFramesPerStep = 64;  // frames handled per step(): a bounded loop
 
 struct MasterConfig {
   std::array<std::uint8_t, kMaxDrives> nodes{1, 2, 0, 0};  // 0 = unused
