@@ -159,3 +159,25 @@ TEST(PowerBoard, EstopDisablesTheDrivesWithinOneControlPeriod) {
 
 }  // namespace
 }  // namespace cairn
+
+#include "drivers/modbus/power_config.hpp"
+
+namespace cairn {
+namespace {
+
+TEST(PowerBoard, RegisterMapFromConfig) {
+  auto doc = ConfigDocument::parse("[power]\nslave = 3\nvoltage_register = 10\ncurrent_register = 11\nsoc_register = 12\n"
+                                   "temperature_register = 13\nestop_input = 2\nvoltage_scale = 0.001\n",
+                                   "robot.toml");
+  const auto m = modbus::register_map_from_config(doc.root().section("power"));
+  EXPECT_EQ(m.slave, 3);
+  EXPECT_EQ(m.temperature, 13);
+  EXPECT_EQ(m.estop, 2);
+  EXPECT_DOUBLE_EQ(m.voltage_scale, 0.001);
+  EXPECT_NO_THROW(doc.finish());
+  auto dup = ConfigDocument::parse("[power]\nvoltage_register = 1\n", "robot.toml");  // collides with current (1)
+  EXPECT_THROW(modbus::register_map_from_config(dup.root().section("power")), ConfigError);
+}
+
+}  // namespace
+}  // namespace cairn
