@@ -148,7 +148,9 @@ void Hub::run() {
       continue;
     }
     if (it->bus_off) continue;  // a bus-off node sends nothing
-    // Deliver to everyone; the sender's copy is marked as its own (kind 4).
+    // Deliver to everyone; the sender's copy is marked as its own (kind 4). Counted first,
+    // so a receiver never sees a frame the counter does not include yet.
+    forwarded_.fetch_add(1, std::memory_order_relaxed);
     for (const Client& c : clients_) {
       if (c.bus_off) continue;  // a bus-off controller is off the bus: it hears nothing either
       const bool own = c.addr == addr;
@@ -156,7 +158,6 @@ void Hub::run() {
       buf[5] = own ? 4 : kFrame;
       send_to(c, buf, sizeof buf);
     }
-    forwarded_.fetch_add(1, std::memory_order_relaxed);
   }
 }
 
