@@ -89,18 +89,22 @@ void Hub::send_to(const Client& c, const void* data, std::size_t n) {
            static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + c.addr.size()));
 }
 
+void Hub::send_error(const Client& c, std::uint32_t error_class) {
+  Frame err;
+  err.id = Frame::kError | error_class;
+  err.len = 8;
+  const Wire w = encode_wire(err, kFrame, 0);
+  send_to(c, w.bytes, sizeof w.bytes);
+}
+
 void Hub::inject_bus_off(std::uint16_t sender, Nanos hold) {
   std::lock_guard l(mutex_);
   const Nanos until = MonotonicClock::instance().now() + hold;
-  Frame err;
-  err.id = Frame::kError | kErrBusOff;
-  err.len = 8;
-  const Wire w = encode_wire(err, kFrame, 0);
   for (Client& c : clients_) {
     if (sender == 0 || c.sender == sender) {
       c.bus_off = true;
       c.hold_until = until;
-      send_to(c, w.bytes, sizeof w.bytes);
+      send_error(c, kErrBusOff);
     }
   }
 }
@@ -132,19 +136,11 @@ void Hub::run() {
     if (it == clients_.end()) continue;  // not registered
     if (kind == kRestart) {
       if (MonotonicClock::instance().now() < it->hold_until) {  // the fault persists: still bus-off
-        Frame b;
-        b.id = Frame::kError | kErrBusOff;
-        b.len = 8;
-        const Wire w = encode_wire(b, kFrame, 0);
-        send_to(*it, w.bytes, sizeof w.bytes);
+        send_error(*it, kErrBusOff);
         continue;
       }
       it->bus_off = false;
-      Frame r;
-      r.id = Frame::kError | kErrRestarted;
-      r.len = 8;
-      const Wire w = encode_wire(r, kFrame, 0);
-      send_to(*it, w.bytes, sizeof w.bytes);
+      send_error(*it, kErrRestarted);
       continue;
     }
     if (it->bus_off) continue;  // a bus-off node sends nothing

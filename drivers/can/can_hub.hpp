@@ -45,6 +45,7 @@ class Hub {
   };
   void run();
   void send_to(const Client& c, const void* data, std::size_t n);
+  void send_error(const Client& c, std::uint32_t error_class);
   std::string path_;
   int fd_ = -1;
   std::thread thread_;
