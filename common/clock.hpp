@@ -14,6 +14,14 @@ constexpr Nanos kNanosPerSecond = 1'000'000'000;
 constexpr Nanos kNanosPerMilli = 1'000'000;
 constexpr Nanos kNanosPerMicro = 1'000;
 
+/// A timeout as whole milliseconds for poll() and friends: rounded up (never shorter than
+/// asked), 0 for past deadlines, capped at 1000 s.
+constexpr int timeout_to_ms(Nanos timeout) {
+  if (timeout <= 0) return 0;
+  const Nanos ms = (timeout + kNanosPerMilli - 1) / kNanosPerMilli;
+  return ms > 1'000'000 ? 1'000'000 : static_cast<int>(ms);
+}
+
 constexpr Nanos seconds_to_nanos(double s) { return static_cast<Nanos>(s * 1e9); }
 constexpr double nanos_to_seconds(Nanos t) { return static_cast<double>(t) * 1e-9; }
 

@@ -102,6 +102,14 @@ inline void between_jacobians(const Pose2& a, const Pose2& b, Mat3* j_a, Mat3* j
   }
 }
 
+/// The pose change of constant forward speed v (m/s) and turn rate w (rad/s) over dt:
+/// an exact circular arc (a straight line when w is ~0).
+inline Pose2 arc_motion(double v, double w, double dt) {
+  if (std::abs(w) < 1e-9) return {v * dt, 0.0, 0.0};
+  const double th = w * dt;
+  return {v / w * std::sin(th), v / w * (1.0 - std::cos(th)), th};
+}
+
 /// A point given in the frame of `pose`, returned in the frame pose is expressed in.
 inline Vec2 transform_point(const Pose2& pose, const Vec2& p_local) {
   return pose.rotation() * p_local + pose.translation();

@@ -198,12 +198,7 @@ void Runner::predict(int r, double t) {
   if (dt <= 0) return;
   rr.t_last = t;
   const double dth = rr.w * dt;
-  Pose2 delta;
-  if (std::abs(rr.w) < 1e-9) {
-    delta = {rr.v * dt, 0, 0};
-  } else {
-    delta = {rr.v / rr.w * std::sin(dth), rr.v / rr.w * (1 - std::cos(dth)), dth};
-  }
+  const Pose2 delta = arc_motion(rr.v, rr.w, dt);
   const double dist = std::abs(rr.v * dt), turn = std::abs(dth);
   const double sx = o_.odom_v_rel * dist, sy = 0.3 * o_.odom_v_rel * dist, st = o_.odom_w_rel * turn + 0.1 * o_.odom_w_rel * dist;
   Mat3 Q = Vec3(sx * sx + o_.odom_v_rate * o_.odom_v_rate * dt, sy * sy + 0.25 * o_.odom_v_rate * o_.odom_v_rate * dt,

@@ -222,7 +222,7 @@ SendResult UcanPort::send(const Frame& f, Nanos deadline) {
 bool UcanPort::receive(Frame* f, Nanos timeout) {
   for (;;) {
     pollfd p{fd_, POLLIN, 0};
-    const int ms = timeout <= 0 ? 0 : static_cast<int>((timeout + kNanosPerMilli - 1) / kNanosPerMilli);
+    const int ms = timeout_to_ms(timeout);
     if (poll(&p, 1, ms) <= 0) return false;
     std::uint8_t buf[16];
     if (::recv(fd_, buf, sizeof buf, MSG_DONTWAIT) != 16) return false;

@@ -94,7 +94,7 @@ SendResult SocketCanPort::send(const Frame& f, Nanos deadline) {
 
 bool SocketCanPort::receive(Frame* f, Nanos timeout) {
   pollfd p{fd_, POLLIN, 0};
-  const int ms = timeout <= 0 ? 0 : static_cast<int>((timeout + kNanosPerMilli - 1) / kNanosPerMilli);
+  const int ms = timeout_to_ms(timeout);
   if (poll(&p, 1, ms) <= 0) return false;
   can_frame cf{};
   iovec iov{&cf, sizeof cf};

@@ -28,18 +28,12 @@ speed_t speed_of(std::uint32_t baud) {
   }
 }
 
-int poll_ms(Nanos timeout) {
-  if (timeout <= 0) return 0;
-  const Nanos ms = (timeout + kNanosPerMilli - 1) / kNanosPerMilli;
-  return ms > 1'000'000 ? 1'000'000 : static_cast<int>(ms);
-}
-
 }  // namespace
 
 IoResult fd_read(int fd, std::span<std::uint8_t> buffer, Nanos timeout) {
   if (fd < 0) return {IoResult::Status::kClosed, 0, EBADF};
   pollfd p{fd, POLLIN, 0};
-  const int r = poll(&p, 1, poll_ms(timeout));
+  const int r = poll(&p, 1, timeout_to_ms(timeout));
   if (r == 0) return {IoResult::Status::kTimeout, 0, 0};
   if (r < 0) return errno == EINTR ? IoResult{IoResult::Status::kTimeout, 0, 0} : IoResult{IoResult::Status::kError, 0, errno};
   const ssize_t n = ::read(fd, buffer.data(), buffer.size());
@@ -66,7 +60,7 @@ IoResult fd_write(int fd, std::span<const std::uint8_t> bytes, Nanos timeout) {
     const Nanos left = deadline - MonotonicClock::instance().now();
     if (left <= 0) return {IoResult::Status::kTimeout, done, 0};
     pollfd p{fd, POLLOUT, 0};
-    poll(&p, 1, poll_ms(left));
+    poll(&p, 1, timeout_to_ms(left));
   }
   return {IoResult::Status::kOk, done, 0};
 }

@@ -16,7 +16,6 @@ std::string sp_message(const std::string& what) {
   if (msg) sp_free_error_message(msg);
   return s;
 }
-unsigned int timeout_ms(Nanos t) { return t <= 0 ? 0 : static_cast<unsigned int>((t + kNanosPerMilli - 1) / kNanosPerMilli); }
 }  // namespace
 
 std::string list_serial_ports() {
@@ -87,7 +86,7 @@ bool SerialPortStream::set_baud(std::uint32_t baud, std::string* error) {
 IoResult SerialPortStream::read(std::span<std::uint8_t> buffer, Nanos timeout) {
   if (!port_) return {IoResult::Status::kClosed, 0, EBADF};
   if (sp_input_waiting(port_) <= 0) {
-    if (sp_wait(rx_events_, timeout_ms(timeout)) != SP_OK) return {IoResult::Status::kError, 0, errno};
+    if (sp_wait(rx_events_, static_cast<unsigned int>(timeout_to_ms(timeout))) != SP_OK) return {IoResult::Status::kError, 0, errno};
   }
   const int n = sp_nonblocking_read(port_, buffer.data(), buffer.size());
   if (n > 0) return {IoResult::Status::kOk, static_cast<std::size_t>(n), 0};
@@ -97,7 +96,7 @@ IoResult SerialPortStream::read(std::span<std::uint8_t> buffer, Nanos timeout) {
 
 IoResult SerialPortStream::write(std::span<const std::uint8_t> bytes, Nanos timeout) {
   if (!port_) return {IoResult::Status::kClosed, 0, EBADF};
-  const int n = sp_blocking_write(port_, bytes.data(), bytes.size(), timeout_ms(timeout));
+  const int n = sp_blocking_write(port_, bytes.data(), bytes.size(), static_cast<unsigned int>(timeout_to_ms(timeout)));
   if (n < 0) return {errno == EIO ? IoResult::Status::kClosed : IoResult::Status::kError, 0, errno};
   if (static_cast<std::size_t>(n) < bytes.size()) return {IoResult::Status::kTimeout, static_cast<std::size_t>(n), 0};
   return {IoResult::Status::kOk, static_cast<std::size_t>(n), 0};

@@ -9,14 +9,7 @@ void DiffRobot::step(double left_motor, double right_motor, double dt) {
   const double vl = left_motor * m_per_count;
   const double vr = (g_.right_inverted ? -right_motor : right_motor) * m_per_count;
   const double v = 0.5 * (vl + vr), w = (vr - vl) / g_.track_m;
-  // Exact arc for constant (v, w) over dt.
-  Pose2 delta;
-  if (std::abs(w) < 1e-9) {
-    delta = {v * dt, 0, 0};
-  } else {
-    delta = {v / w * std::sin(w * dt), v / w * (1 - std::cos(w * dt)), w * dt};
-  }
-  const Pose2 next = compose(pose_, delta);
+  const Pose2 next = compose(pose_, arc_motion(v, w, dt));
   if (world_->collides(next.translation(), radius_, id_)) {
     ++bumps_;  // blocked: the wheels slip, the robot turns in place at most
     pose_.theta = next.theta;

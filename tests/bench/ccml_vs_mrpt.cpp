@@ -177,8 +177,7 @@ Accuracy mrclam_robot1(const std::string& dir) {
     const double dt = t - t_last;
     if (dt <= 0) return;
     t_last = t;
-    const Pose2 step = std::abs(w) < 1e-9 ? Pose2{v * dt, 0, 0}
-                                          : Pose2{v / w * std::sin(w * dt), v / w * (1 - std::cos(w * dt)), w * dt};
+    const Pose2 step = arc_motion(v, w, dt);
     Mat3 J1, J2;
     compose_jacobians(delta, step, &J1, &J2);
     const double sx = 0.15 * std::abs(v * dt), st = 0.4 * std::abs(w * dt) + 0.015 * std::abs(v * dt);
