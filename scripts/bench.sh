@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs Cairn's benchmarks beside their peer baselines, in one go, and prints the ratios.
 # Installs the peers first (MRPT from Debian: scripts/setup-deps.sh --peers).
-#   scripts/bench.sh [dds|lms|ccml|all]   (default all)
+#   scripts/bench.sh [dds|lms|ccml|scans|all]   (default all)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 what=${1:-all}
@@ -20,4 +20,9 @@ fi
 if [[ $what == ccml || $what == all ]]; then
   echo "== CCML: Cairn's EKF vs MRPT's CRangeBearingKFSLAM2D"
   "$B/cairn-bench-ccml-mrpt" --steps 200 --mrclam ../shared/datasets/mrclam/MRCLAM_Dataset6
+fi
+if [[ $what == scans || $what == all ]]; then
+  echo "== Scan matching: Cairn's matcher vs MRPT ICP on the Intel and ACES Carmen logs"
+  C=../shared/datasets/radish-corrected-carmen
+  "$B/cairn-bench-scan-mrpt" "$C/intel-corrected.log.gz" "$C/aces-corrected.log.gz"
 fi

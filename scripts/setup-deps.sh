@@ -13,7 +13,7 @@ core=(
   libeigen3-dev
   cyclonedds-dev cyclonedds-tools
   libmodbus-dev libserialport-dev
-  libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libpng-dev libboost-dev gnuplot-nox
+  libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libpng-dev zlib1g-dev libboost-dev gnuplot-nox
   googletest libgtest-dev libgmock-dev libbenchmark-dev
 )
 extra=()

@@ -1,6 +1,7 @@
 // cairn-eval's subcommands.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 
@@ -24,5 +25,15 @@ struct MrclamCmdOptions {
   bool json = false;
 };
 int mrclam(const MrclamCmdOptions& o);
+
+struct ScansCmdOptions {
+  std::string log;
+  double sigma_xy = 0.10, sigma_theta_deg = 5.0;
+  std::uint64_t seed = 1;
+  std::size_t max_pairs = 0;
+  bool no_mapper = false;
+  bool json = false;
+};
+int scans(const ScansCmdOptions& o);
 
 }  // namespace cairn::eval

@@ -38,11 +38,26 @@ int main(int argc, char** argv) {
   mc->add_option("--iterations", mr.iterations, "EKF update iterations (1 = EKF)")->check(CLI::Range(1, 50));
   mc->add_flag("--json", mr.json, "print JSON");
 
+  ScansCmdOptions sc;
+  auto* sn = app.add_subcommand("scans",
+                                "Carmen laser log: register consecutive scan pairs from perturbed reference poses, then run "
+                                "the local mapper with perturbed odometry; errors against the log's reference poses");
+  sn->add_option("log", sc.log, "Carmen log, plain or .gz (e.g. ../shared/datasets/radish-corrected-carmen/intel-corrected.log.gz)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sn->add_option("--sigma-xy", sc.sigma_xy, "initial-guess noise per axis (m)")->check(CLI::NonNegativeNumber);
+  sn->add_option("--sigma-theta-deg", sc.sigma_theta_deg, "initial-guess heading noise (deg)")->check(CLI::NonNegativeNumber);
+  sn->add_option("--seed", sc.seed, "random seed for the perturbations");
+  sn->add_option("--max-pairs", sc.max_pairs, "use only the first N pairs (0 = all)");
+  sn->add_flag("--no-mapper", sc.no_mapper, "skip the local-mapper drift run");
+  sn->add_flag("--json", sc.json, "print JSON");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*cp) return ccml_paper(paper);
     if (*vn) return vehicles_needed_cmd(initial, desired, vn_json);
     if (*mc) return mrclam(mr);
+    if (*sn) return scans(sc);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "cairn-eval: error: %s\n", e.what());
     return 1;

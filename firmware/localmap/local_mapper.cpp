@@ -1,0 +1,117 @@
+#include "firmware/localmap/local_mapper.hpp"
+
+#include <Eigen/LU>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace cairn::localmap {
+
+const char* validate(const LocalMapConfig& c) {
+  if (const char* e = validate(c.grid)) return e;
+  if (const char* e = validate(c.match)) return e;
+  if (c.keyframes < 1 || c.keyframes > 100) return "keyframes must be in [1, 100]";
+  if (c.max_points < 3 || c.max_points > 8192) return "max_points must be in [3, 8192]";
+  if (!(c.keyframe_distance_m > 0) || !(c.keyframe_angle_rad > 0)) return "keyframe thresholds must be > 0";
+  if (!(c.min_range_m >= 0 && c.max_range_m > c.min_range_m)) return "need 0 <= min_range_m < max_range_m";
+  return nullptr;
+}
+
+namespace {
+LocalMapConfig checked(const LocalMapConfig& c) {
+  if (const char* e = validate(c)) throw std::invalid_argument(std::string("local map: ") + e);
+  return c;
+}
+}  // namespace
+
+LocalMapper::LocalMapper(const LocalMapConfig& cfg)
+    : cfg_(checked(cfg)),
+      grid_(cfg.grid),
+      matcher_(cfg.match, static_cast<std::size_t>(cfg.max_points)),
+      ring_(static_cast<std::size_t>(cfg.keyframes) * static_cast<std::size_t>(cfg.max_points)),
+      ring_count_(static_cast<std::size_t>(cfg.keyframes)) {
+  for (int i = 0; i < cfg.keyframes; ++i) (void)ring_count_.push_back(0);
+  for (std::size_t i = 0; i < ring_.capacity(); ++i) (void)ring_.push_back(Vec2::Zero());
+}
+
+void LocalMapper::reset(const Pose2& pose) {
+  pose_ = pose;
+  last_keyframe_ = pose;
+  has_map_ = false;
+  ring_next_ = ring_used_ = 0;
+  grid_.reset(pose.translation());
+}
+
+void LocalMapper::add_keyframe(std::span<const Vec2> points) {
+  const std::size_t base = ring_next_ * static_cast<std::size_t>(cfg_.max_points);
+  std::size_t n = 0;
+  for (const Vec2& p : points) {
+    if (n == static_cast<std::size_t>(cfg_.max_points)) {
+      ++counters_.points_dropped;
+      continue;
+    }
+    ring_[base + n++] = transform_point(pose_, p);
+  }
+  ring_count_[ring_next_] = n;
+  ring_next_ = (ring_next_ + 1) % static_cast<std::size_t>(cfg_.keyframes);
+  if (ring_used_ < static_cast<std::size_t>(cfg_.keyframes)) ++ring_used_;
+  last_keyframe_ = pose_;
+  ++counters_.keyframes;
+  rebuild();
+  has_map_ = true;
+}
+
+void LocalMapper::rebuild() {
+  grid_.reset(pose_.translation());
+  for (std::size_t k = 0; k < ring_used_; ++k) {
+    const std::size_t base = k * static_cast<std::size_t>(cfg_.max_points);
+    grid_.add_surface(std::span<const Vec2>(&ring_[base], ring_count_[k]), cfg_.surface_gap_m);
+  }
+  grid_.finish();
+  ++counters_.rebuilds;
+}
+
+LocalMapUpdate LocalMapper::add_scan(std::span<const Vec2> points, const Pose2& odom_delta, const Mat3& odom_cov) {
+  ++counters_.scans;
+  LocalMapUpdate u;
+  const Pose2 previous = pose_;
+  const Pose2 guess = compose(pose_, odom_delta);
+  pose_ = guess;
+  // The increment's covariance in the local frame's axes at the previous pose.
+  const Mat2 r = previous.rotation();
+  Mat3 rot = Mat3::Identity();
+  rot.topLeftCorner<2, 2>() = r;
+  const Mat3 odom_local = rot * odom_cov * rot.transpose();
+  u.covariance = odom_cov;
+  if (has_map_) {
+    u.match = matcher_.match(grid_, points, guess);
+    if (u.match.ok) {
+      // Fuse: guess (odometry) and match as two measurements of the same pose.
+      const Mat3 s = odom_local + u.match.covariance;
+      const Mat3 k = odom_local * s.inverse();
+      Vec3 innovation = u.match.pose.vector() - guess.vector();
+      innovation.z() = normalize_angle(innovation.z());
+      Vec3 fused = guess.vector() + k * innovation;
+      fused.z() = normalize_angle(fused.z());
+      pose_ = Pose2::from_vector(fused);
+      const Mat3 fused_local = (Mat3::Identity() - k) * odom_local;
+      u.covariance = rot.transpose() * fused_local * rot;
+      u.covariance = 0.5 * (u.covariance + u.covariance.transpose());
+      u.matched = true;
+      ++counters_.matched;
+    } else {
+      ++counters_.rejected;
+    }
+  }
+  u.pose = pose_;
+  u.increment = between(previous, pose_);
+  const Pose2 since = between(last_keyframe_, pose_);
+  if (!has_map_ || std::hypot(since.x, since.y) >= cfg_.keyframe_distance_m ||
+      std::abs(since.theta) >= cfg_.keyframe_angle_rad) {
+    add_keyframe(points);
+    u.keyframe = true;
+  }
+  return u;
+}
+
+}  // namespace cairn::localmap

@@ -1,0 +1,207 @@
+// The local scan matcher and mapper on synthetic scans of a known room: the field's
+// shape, recovery of a known offset from a perturbed guess, a covariance that is wide
+// along a corridor, drift well below odometry's, and no allocation per scan.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <numbers>
+#include <random>
+#include <vector>
+
+#include "firmware/localmap/local_mapper.hpp"
+#ifndef CAIRN_SANITIZED
+#include "tests/support/alloc_counter.hpp"
+#endif
+
+namespace cairn::localmap {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+// Walls as segments; a scan is the nearest hit per beam (361 beams over 180°).
+struct Segment {
+  Vec2 a, b;
+};
+std::vector<Segment> room() {
+  // A 12 × 8 m room with an inner box and an L-shaped wall: enough structure to pin all three axes.
+  return {{{0, 0}, {12, 0}}, {{12, 0}, {12, 8}}, {{12, 8}, {0, 8}}, {{0, 8}, {0, 0}},
+          {{4, 2}, {5, 2}},  {{5, 2}, {5, 3.5}}, {{5, 3.5}, {4, 3.5}}, {{4, 3.5}, {4, 2}},
+          {{8, 5}, {10, 5}}, {{8, 5}, {8, 6.5}}};
+}
+std::vector<Segment> corridor() { return {{{-50, 0}, {50, 0}}, {{-50, 2}, {50, 2}}}; }
+
+std::vector<Vec2> scan(const std::vector<Segment>& walls, const Pose2& pose, double noise, std::mt19937_64* rng) {
+  std::normal_distribution<double> n(0.0, noise);
+  std::vector<Vec2> pts;
+  for (int i = 0; i < 361; ++i) {
+    const double a = -kPi / 2 + i * kPi / 360;
+    const Vec2 d(std::cos(pose.theta + a), std::sin(pose.theta + a));
+    double best = 1e9;
+    for (const Segment& s : walls) {
+      const Vec2 e = s.b - s.a, w = s.a - pose.translation();
+      const double den = d.x() * e.y() - d.y() * e.x();
+      if (std::abs(den) < 1e-12) continue;
+      const double t = (w.x() * e.y() - w.y() * e.x()) / den, u = (w.x() * d.y() - w.y() * d.x()) / den;
+      if (t > 0 && u >= 0 && u <= 1) best = std::min(best, t);
+    }
+    if (best > 14) continue;
+    const double r = best + (noise > 0 ? n(*rng) : 0.0);
+    pts.emplace_back(r * std::cos(a), r * std::sin(a));
+  }
+  return pts;
+}
+
+LikelihoodGrid field_of(const std::vector<Vec2>& pts, const GridConfig& g = {}) {
+  LikelihoodGrid grid(g);
+  grid.reset(Vec2::Zero());
+  grid.add_surface(pts, 0.5);
+  grid.finish();
+  return grid;
+}
+
+TEST(LikelihoodGrid, PeaksOnAPointAndPointsUphill) {
+  LikelihoodGrid grid(GridConfig{});
+  grid.reset(Vec2(1, 1));
+  grid.add_point(Vec2(1.013, 0.987));
+  grid.finish();
+  EXPECT_GT(grid.sample(Vec2(1.013, 0.987), nullptr), 0.8);  // bilinear between cell centres
+  Vec2 g;
+  const double v = grid.sample(Vec2(1.06, 0.987), &g);
+  EXPECT_GT(v, 0.2);
+  EXPECT_LT(v, 0.9);
+  EXPECT_LT(g.x(), 0);  // uphill is back towards the point
+  EXPECT_EQ(grid.sample(Vec2(3, 3), nullptr), 0.0);
+  // The coarse level bounds the fine level from above.
+  for (int y = 0; y < grid.size(); ++y)
+    for (int x = 0; x < grid.size(); ++x)
+      ASSERT_LE(grid.cell(x, y), grid.coarse_cell(x / 4, y / 4));
+  // A reset clears everything the last build touched; points off the window are counted.
+  grid.reset(Vec2(1, 1));
+  grid.finish();
+  EXPECT_EQ(grid.sample(Vec2(1.013, 0.987), nullptr), 0.0);
+  EXPECT_EQ(grid.coarse_cell(grid.coarse_size() / 2, grid.coarse_size() / 2), 0.0f);
+  grid.add_point(Vec2(100, 0));
+  EXPECT_EQ(grid.points_outside(), 1u);
+}
+
+TEST(LikelihoodGrid, RejectsBadConfiguration) {
+  GridConfig g;
+  g.size_cells = 510;  // not a multiple of coarse_factor 4
+  EXPECT_THROW(LikelihoodGrid{g}, std::invalid_argument);
+  g = {};
+  g.sigma_m = 0.5;  // 30 cells of kernel
+  EXPECT_NE(validate(g), nullptr);
+}
+
+TEST(ScanMatcher, RecoversAKnownOffsetFromAPerturbedGuess) {
+  std::mt19937_64 rng(7);
+  const Pose2 a{3, 5, 0.2};
+  const std::vector<Vec2> ref = scan(room(), a, 0.0, &rng);
+  const LikelihoodGrid grid = field_of(ref);
+  ScanMatcher matcher(MatchConfig{}, 1024);
+  std::uniform_real_distribution<double> off(-0.25, 0.25), offa(-0.2, 0.2);
+  int ok = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    const Pose2 truth{0.3 + 0.1 * trial / 20, -0.15, 0.05};
+    const std::vector<Vec2> cur = scan(room(), compose(a, truth), 0.01, &rng);
+    const Pose2 guess{truth.x + off(rng), truth.y + off(rng), truth.theta + offa(rng)};
+    const MatchResult m = matcher.match(grid, cur, guess);
+    const Pose2 e = between(truth, m.pose);
+    if (m.ok && std::hypot(e.x, e.y) < 0.01 && std::abs(e.theta) < 0.2 * kPi / 180) ++ok;
+    EXPECT_GT(m.score, 0.5);
+  }
+  EXPECT_GE(ok, 19);
+}
+
+TEST(ScanMatcher, CovarianceIsWideAlongACorridor) {
+  std::mt19937_64 rng(3);
+  const std::vector<Vec2> ref = scan(corridor(), Pose2{0, 1, 0}, 0.0, &rng);
+  const LikelihoodGrid grid = field_of(ref);
+  ScanMatcher matcher(MatchConfig{}, 1024);
+  const MatchResult m = matcher.match(grid, scan(corridor(), Pose2{0.2, 1, 0}, 0.005, &rng), Pose2{0.25, 0.05, 0.02});
+  // Across the corridor (y) and in heading the walls pin the pose; along it (x) they do not.
+  EXPECT_NEAR(m.pose.y, 0.0, 0.01);
+  EXPECT_NEAR(m.pose.theta, 0.0, 0.005);
+  // Only the scan's far end (the range limit) says anything about x.
+  EXPECT_GT(m.covariance(0, 0), 5 * m.covariance(1, 1)) << m.covariance;
+}
+
+TEST(ScanMatcher, EmptyOrTinyScansAreNotMatches) {
+  const LikelihoodGrid grid = field_of({Vec2(1, 0), Vec2(1, 0.1), Vec2(1, 0.2)});
+  ScanMatcher matcher(MatchConfig{}, 16);
+  EXPECT_FALSE(matcher.match(grid, {}, Pose2{}).ok);
+  const std::vector<Vec2> far(5, Vec2(500, 500));  // all outside the window
+  EXPECT_FALSE(matcher.match(grid, far, Pose2{}).ok);
+}
+
+// Drives a loop through the room with odometry that drifts; the mapper's drift must be a
+// small fraction of the odometry's.
+struct LoopRun {
+  double mapper_error = 0, odom_error = 0, path = 0;
+  std::uint64_t allocations = 0;
+  LocalMapCounters counters;
+};
+LoopRun drive_loop(bool count_allocations) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  LocalMapConfig cfg;
+  LocalMapper mapper(cfg);
+  Pose2 truth{2, 1.2, 0};
+  mapper.reset(truth);
+  Pose2 odom = truth;
+  LoopRun r;
+  const std::vector<Segment> walls = room();
+  std::vector<Vec2> pts;
+  pts.reserve(400);
+  for (int k = 0; k < 400; ++k) {
+    const double v = 0.05, w = (k % 100 > 70) ? 0.05 : 0.0;  // straight, then a bend
+    const Pose2 step = arc_motion(v, w, 1.0);
+    Pose2 next = compose(truth, step);
+    if (next.x < 1 || next.x > 11 || next.y < 1 || next.y > 7 || (next.x > 3.5 && next.x < 5.5 && next.y > 1.5 && next.y < 4))
+      next = compose(truth, Pose2{0, 0, 0.3});  // turn in place near walls and the box
+    const Pose2 delta = between(truth, next);
+    truth = next;
+    r.path += std::hypot(delta.x, delta.y);
+    // Odometry: 3 % scale error on translation plus noise, and a heading bias.
+    const Pose2 noisy{delta.x * 1.03 + 0.003 * unit(rng), delta.y + 0.003 * unit(rng), delta.theta + 0.004 + 0.003 * unit(rng)};
+    odom = compose(odom, noisy);
+    const std::vector<Vec2> s = scan(walls, truth, 0.01, &rng);
+    pts.assign(s.begin(), s.end());
+    const Mat3 cov = Vec3(1e-4, 1e-4, 4e-5).asDiagonal();
+#ifndef CAIRN_SANITIZED
+    if (count_allocations && k > 5) testing::start_counting_allocations();
+#endif
+    mapper.add_scan(pts, noisy, cov);
+#ifndef CAIRN_SANITIZED
+    if (count_allocations && k > 5) r.allocations += testing::stop_counting_allocations();
+#endif
+    if (std::getenv("CAIRN_TEST_VERBOSE"))
+      std::printf("%d truth %.3f %.3f %.3f mapper %.3f %.3f %.3f\n", k, truth.x, truth.y, truth.theta, mapper.pose().x,
+                  mapper.pose().y, mapper.pose().theta);
+  }
+  r.mapper_error = std::hypot(mapper.pose().x - truth.x, mapper.pose().y - truth.y);
+  r.odom_error = std::hypot(odom.x - truth.x, odom.y - truth.y);
+  r.counters = mapper.counters();
+  return r;
+}
+
+TEST(LocalMapper, DriftsFarLessThanOdometry) {
+  const LoopRun r = drive_loop(false);
+  EXPECT_GT(r.path, 15.0);
+  EXPECT_GT(r.counters.keyframes, 20u);
+  EXPECT_GT(r.counters.matched, 390u);
+  EXPECT_LT(r.mapper_error, 0.01 * r.path) << "odometry error " << r.odom_error;
+  EXPECT_LT(r.mapper_error, 0.25 * r.odom_error);
+}
+
+#ifndef CAIRN_SANITIZED
+TEST(LocalMapper, AddScanNeverAllocates) {
+  const LoopRun r = drive_loop(true);
+  EXPECT_EQ(r.allocations, 0u);
+}
+#endif
+
+}  // namespace
+}  // namespace cairn::localmap
