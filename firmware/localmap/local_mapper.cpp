@@ -14,6 +14,7 @@ const char* validate(const LocalMapConfig& c) {
   if (c.max_points < 3 || c.max_points > 8192) return "max_points must be in [3, 8192]";
   if (!(c.keyframe_distance_m > 0) || !(c.keyframe_angle_rad > 0)) return "keyframe thresholds must be > 0";
   if (!(c.min_range_m >= 0 && c.max_range_m > c.min_range_m)) return "need 0 <= min_range_m < max_range_m";
+  if (!(c.odometry_inflation >= 1 && c.odometry_inflation <= 1e6)) return "odometry_inflation must be in [1, 1e6]";
   return nullptr;
 }
 
@@ -81,7 +82,9 @@ LocalMapUpdate LocalMapper::add_scan(std::span<const Vec2> points, const Pose2& 
   const Mat2 r = previous.rotation();
   Mat3 rot = Mat3::Identity();
   rot.topLeftCorner<2, 2>() = r;
-  const Mat3 odom_local = rot * odom_cov * rot.transpose();
+  // Wheel slip is not in the odometry's noise model: in the fusion it is trusted
+  // `odometry_inflation` times less (variance), so the scan wins wherever it pins the pose.
+  const Mat3 odom_local = cfg_.odometry_inflation * (rot * odom_cov * rot.transpose());
   u.covariance = odom_cov;
   if (has_map_) {
     u.match = matcher_.match(grid_, points, guess);

@@ -25,6 +25,7 @@ struct LocalMapConfig {
   double keyframe_distance_m = 0.25;    // a new keyframe after this much travel ...
   double keyframe_angle_rad = 0.17;     // ... or this much turning (10°)
   double min_range_m = 0.05, max_range_m = 15.0;  // points used
+  double odometry_inflation = 25.0;     // odometry variance × this in the fusion (slip)
   double surface_gap_m = 0.5;           // join neighbouring returns closer than this (0 = points only)
 };
 

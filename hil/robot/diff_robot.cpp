@@ -6,8 +6,8 @@ namespace cairn::hil {
 
 void DiffRobot::step(double left_motor, double right_motor, double dt) {
   const double m_per_count = g_.wheel_radius_m / g_.counts_per_wheel_rad();
-  const double vl = left_motor * m_per_count;
-  const double vr = (g_.right_inverted ? -right_motor : right_motor) * m_per_count;
+  const double vl = left_motor * m_per_count * scale_left_;
+  const double vr = (g_.right_inverted ? -right_motor : right_motor) * m_per_count * scale_right_;
   const double v = 0.5 * (vl + vr), w = (vr - vl) / g_.track_m;
   const Pose2 next = compose(pose_, arc_motion(v, w, dt));
   if (world_->collides(next.translation(), radius_, id_)) {

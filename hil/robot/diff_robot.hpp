@@ -17,6 +17,11 @@ class DiffRobot {
   }
   /// Advances by dt with the motors' velocities (drive units; the right motor mirrored as configured).
   void step(double left_motor, double right_motor, double dt);
+  /// True wheel radius / nominal, per wheel: what makes odometry drift (1 = perfect).
+  void set_wheel_scale(double left, double right) {
+    scale_left_ = left;
+    scale_right_ = right;
+  }
   const Pose2& pose() const { return pose_; }
   double odometer() const { return odometer_; }
   std::uint64_t bumps() const { return bumps_; }
@@ -29,6 +34,7 @@ class DiffRobot {
   World* world_;
   double odometer_ = 0;
   std::uint64_t bumps_ = 0;
+  double scale_left_ = 1.0, scale_right_ = 1.0;
 };
 
 }  // namespace cairn::hil

@@ -14,7 +14,10 @@ namespace {
 thread_local bool t_counting = false;
 thread_local std::uint64_t t_count = 0;
 inline void note() {
-  if (t_counting) ++t_count;
+  if (t_counting) {
+    ++t_count;
+    if (std::getenv("CAIRN_ALLOC_TRAP")) __builtin_trap();  // find the allocation under a debugger
+  }
 }
 }  // namespace
 

@@ -1,0 +1,71 @@
+#include "hil/bench/robot_bench.hpp"
+
+#include <unistd.h>
+
+#include <stdexcept>
+
+namespace cairn::hil {
+
+RobotBench::RobotBench(const World& world, const RobotBenchConfig& cfg)
+    : cfg_(cfg), physics_world_(world), sensor_world_(world) {
+  const std::string path = cfg.bus_path.empty()
+                               ? "/tmp/cairn-hil-can-" + std::to_string(getpid()) + "-" + std::to_string(cfg.robot_id)
+                               : cfg.bus_path;
+  hub_ = std::make_unique<can::Hub>(path);
+  std::string err;
+  for (std::uint8_t node : {cfg.left_node, cfg.right_node}) {
+    auto port = can::UcanPort::open(path, static_cast<std::uint16_t>(100 + node), false, &err);
+    if (!port) throw std::runtime_error("HIL bench: drive " + std::to_string(node) + ": " + err);
+    DriveConfig dc;
+    dc.node = node;
+    drives_.push_back(std::make_unique<DriveRunner>(std::move(port), dc));
+  }
+  power_ = std::make_unique<PowerEmulator>(PowerEmulator::Link::kTcp, modbus::RegisterMap{}, BatteryConfig{});
+  robot_ = std::make_unique<DiffRobot>(cfg.robot_id, cfg.geometry, cfg.start, 0.3, &physics_world_);
+  robot_->set_wheel_scale(cfg.wheel_scale_left, cfg.wheel_scale_right);
+  truth_.pose = cfg.start;
+  lms_ = std::make_unique<LmsServer>(cfg.lms_tcp ? LmsServer::Link::kTcp : LmsServer::Link::kPty, cfg.lms, &sensor_world_,
+                                     [this](Nanos) {
+                                       std::lock_guard l(mutex_);
+                                       return compose(truth_.pose, cfg_.laser_mount);
+                                     });
+}
+
+RobotBench::~RobotBench() { stop(); }
+
+void RobotBench::start() {
+  if (running_.exchange(true)) return;
+  for (auto& d : drives_) d->start();
+  lms_->start();
+  thread_ = std::thread([this] { physics(); });
+}
+
+void RobotBench::stop() {
+  if (!running_.exchange(false)) return;
+  thread_.join();
+  lms_->stop();
+  for (auto& d : drives_) d->stop();
+}
+
+TruthSample RobotBench::truth() const {
+  std::lock_guard l(mutex_);
+  return truth_;
+}
+
+void RobotBench::physics() {
+  auto& clock = MonotonicClock::instance();
+  Nanos last = clock.now(), next = last;
+  while (running_.load()) {
+    next += 5 * kNanosPerMilli;
+    clock.sleep_until(next);
+    const Nanos now = clock.now();
+    const double l = drives_[0]->with_node([](DriveNode& n) { return n.velocity(); });
+    const double r = drives_[1]->with_node([](DriveNode& n) { return n.velocity(); });
+    robot_->step(l, r, nanos_to_seconds(now - last));
+    last = now;
+    std::lock_guard lock(mutex_);
+    truth_ = {now, robot_->pose(), robot_->odometer()};
+  }
+}
+
+}  // namespace cairn::hil

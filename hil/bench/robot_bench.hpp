@@ -1,0 +1,74 @@
+// One simulated robot on the HIL bench: a world, the robot's body (moved by its two
+// CiA 402 drive emulators on a user-space CAN bus), its LMS2xx emulator (scanning from the
+// body's true pose through the laser mount) and its power-board emulator. The production
+// firmware connects to lms_uri(), can_uri() and power_uri() exactly as to real devices.
+// Physics runs in its own thread at 200 Hz; the true pose is kept for the tests.
+#pragma once
+
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "drivers/can/can_hub.hpp"
+#include "hil/cia402/drive_runner.hpp"
+#include "hil/lms2xx/lms_server.hpp"
+#include "hil/power/power_emulator.hpp"
+#include "hil/robot/diff_robot.hpp"
+#include "hil/world/world.hpp"
+
+namespace cairn::hil {
+
+struct RobotBenchConfig {
+  int robot_id = 1;
+  Pose2 start{1.5, 10.0, 0.0};
+  std::string bus_path;                       // the CAN hub's socket ("" = a fresh one in /tmp)
+  Pose2 laser_mount{0.2, 0.0, 0.0};
+  double wheel_scale_left = 1.01, wheel_scale_right = 0.995;  // true radius / nominal: odometry drifts
+  canopen::DiffDriveGeometry geometry;
+  LmsDeviceConfig lms;
+  bool lms_tcp = false;                       // serve the laser on TCP instead of a pty
+  std::uint8_t left_node = 1, right_node = 2;
+};
+
+struct TruthSample {
+  Nanos t = 0;
+  Pose2 pose;
+  double odometer = 0;
+};
+
+class RobotBench {
+ public:
+  RobotBench(const World& world, const RobotBenchConfig& cfg);
+  ~RobotBench();
+  void start();
+  void stop();
+
+  std::string lms_uri() const { return lms_->uri(); }
+  std::string can_uri() const { return hub_->uri(); }
+  std::string power_uri() const { return power_->uri(); }
+
+  TruthSample truth() const;
+  LmsServer& lms() { return *lms_; }
+  PowerEmulator& power() { return *power_; }
+  can::Hub& hub() { return *hub_; }
+  DriveRunner& drive(int i) { return *drives_[static_cast<std::size_t>(i)]; }
+
+ private:
+  void physics();
+  RobotBenchConfig cfg_;
+  World physics_world_, sensor_world_;  // the sensor's copy is read-only while it runs
+  std::unique_ptr<can::Hub> hub_;
+  std::vector<std::unique_ptr<DriveRunner>> drives_;
+  std::unique_ptr<PowerEmulator> power_;
+  std::unique_ptr<LmsServer> lms_;
+  std::unique_ptr<DiffRobot> robot_;
+  mutable std::mutex mutex_;
+  TruthSample truth_;
+  std::atomic<bool> running_{false};
+  std::thread thread_;
+};
+
+}  // namespace cairn::hil
