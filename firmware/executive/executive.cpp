@@ -99,7 +99,7 @@ void Executive::Sink::on_scan(const lms::LmsScan& s) {
 }
 
 void Executive::lms_thread() {
-  rt_report_ += "lms: " + apply_rt(cfg_.io_threads) + "\n";
+  rt_reports_[0] = "lms: " + apply_rt(cfg_.io_threads);
   auto& clock = MonotonicClock::instance();
   std::string err;
   std::unique_ptr<serial::ByteStream> stream;
@@ -140,7 +140,7 @@ void Executive::lms_thread() {
 // ---- CAN I/O thread ------------------------------------------------------------------
 
 void Executive::can_thread() {
-  rt_report_ += "can: " + apply_rt(cfg_.io_threads) + "\n";
+  rt_reports_[1] = "can: " + apply_rt(cfg_.io_threads);
   auto& clock = MonotonicClock::instance();
   if (hooks_.steady) hooks_.steady("can");
   Nanos next_snapshot = 0;
@@ -186,7 +186,7 @@ void Executive::can_thread() {
 // ---- power-board I/O thread ----------------------------------------------------------
 
 void Executive::power_thread() {
-  rt_report_ += "power: " + apply_rt(cfg_.io_threads) + "\n";
+  rt_reports_[2] = "power: " + apply_rt(cfg_.io_threads);
   auto& clock = MonotonicClock::instance();
   std::string err;
   err.reserve(256);  // failure messages reuse this buffer
@@ -229,7 +229,7 @@ void Executive::power_thread() {
 // ---- RT loop -------------------------------------------------------------------------
 
 void Executive::rt_thread() {
-  rt_report_ += "rt: " + apply_rt(cfg_.rt_loop) + "\n";
+  rt_reports_[3] = "rt: " + apply_rt(cfg_.rt_loop);
   auto& clock = MonotonicClock::instance();
   LoopStats stats(cfg_.period);
   if (hooks_.steady) hooks_.steady("rt");

@@ -96,8 +96,9 @@ class Executive {
 
   void start();
   void stop();
-  /// What the RT setup achieved per thread ("rt: SCHED_FIFO refused ...").
-  const std::string& rt_report() const { return rt_report_; }
+  /// What the RT setup achieved per thread ("rt: SCHED_FIFO refused ..."); each thread
+  /// writes its own line as it starts: read after stop().
+  const std::array<std::string, 4>& rt_reports() const { return rt_reports_; }
 
   // Non-RT side (one thread).
   void set_velocity(double v, double w, Nanos now);
@@ -131,7 +132,7 @@ class Executive {
 
   ExecutiveConfig cfg_;
   ThreadHooks hooks_;
-  std::string rt_report_;
+  std::array<std::string, 4> rt_reports_;
   std::atomic<bool> running_{false};
   std::unique_ptr<can::Port> can_port_;
   std::unique_ptr<canopen::DriveMaster> master_;

@@ -143,7 +143,7 @@ struct LoopRun {
   std::uint64_t allocations = 0;
   LocalMapCounters counters;
 };
-LoopRun drive_loop(bool count_allocations) {
+LoopRun drive_loop([[maybe_unused]] bool count_allocations) {
   std::mt19937_64 rng(11);
   std::normal_distribution<double> unit(0.0, 1.0);
   LocalMapConfig cfg;
