@@ -43,8 +43,18 @@ namespace {
 int floor_int(double v) { return static_cast<int>(std::floor(v)); }
 }  // namespace
 
+// Whole-cell translations only shift the cell indices, so the correlative stages index the
+// sparse points once per angle (rotated, shifted by `offset` from the grid's corner).
+void ScanMatcher::index_points(double cs, double sn, const Vec2& offset, double cell) {
+  for (std::size_t i = 0; i < sparse_.size(); ++i) {
+    const Vec2& p = sparse_[i];
+    cell_x_[i] = floor_int((cs * p.x() - sn * p.y() + offset.x()) / cell);
+    cell_y_[i] = floor_int((sn * p.x() + cs * p.y() + offset.y()) / cell);
+  }
+}
+
 ScanMatcher::Candidate ScanMatcher::search_fine(const LikelihoodGrid& grid, const Candidate& c,
-                                                double coarse_step) const {
+                                                double coarse_step) {
   const double res = grid.config().resolution_m;
   const double fine_step = std::acos(std::clamp(1.0 - res * res / (2 * cfg_.step_range_m * cfg_.step_range_m), -1.0, 1.0));
   const int na = static_cast<int>(std::ceil(0.5 * coarse_step / fine_step));
@@ -56,12 +66,7 @@ ScanMatcher::Candidate ScanMatcher::search_fine(const LikelihoodGrid& grid, cons
   for (int a = -na; a <= na; ++a) {
     const double th = c.theta + a * fine_step;
     const double cs = std::cos(th), sn = std::sin(th);
-    // Whole-cell translations only shift the cell indices, so index the points once per angle.
-    for (std::size_t i = 0; i < n; ++i) {
-      const Vec2& p = sparse_[i];
-      cell_x_[i] = floor_int((cs * p.x() - sn * p.y() + c.x - origin.x()) / res);
-      cell_y_[i] = floor_int((sn * p.x() + cs * p.y() + c.y - origin.y()) / res);
-    }
+    index_points(cs, sn, Vec2(c.x, c.y) - origin, res);
     for (int ty = -half; ty <= half; ++ty) {
       for (int tx = -half; tx <= half; ++tx) {
         double s = 0;
@@ -156,11 +161,7 @@ MatchResult ScanMatcher::match(const LikelihoodGrid& grid, std::span<const Vec2>
   for (int a = -na; a <= na; ++a) {
     const double th = guess.theta + a * coarse_step;
     const double cs = std::cos(th), sn = std::sin(th);
-    for (std::size_t i = 0; i < n; ++i) {
-      const Vec2& p = sparse_[i];
-      cell_x_[i] = floor_int((cs * p.x() - sn * p.y() + guess.x - origin.x()) / res_c);
-      cell_y_[i] = floor_int((sn * p.x() + cs * p.y() + guess.y - origin.y()) / res_c);
-    }
+    index_points(cs, sn, guess.translation() - origin, res_c);
     for (int ty = -nt; ty <= nt; ++ty) {
       for (int tx = -nt; tx <= nt; ++tx) {
         double s = 0;

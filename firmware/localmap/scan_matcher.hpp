@@ -57,7 +57,8 @@ class ScanMatcher {
   void finish(const LikelihoodGrid& grid, std::span<const Vec2> points, const Pose2& pose, double cost,
               MatchResult* out) const;
   double log_likelihood(const LikelihoodGrid& grid, std::span<const Vec2> points, const Pose2& pose) const;
-  Candidate search_fine(const LikelihoodGrid& grid, const Candidate& c, double coarse_step) const;
+  void index_points(double cs, double sn, const Vec2& offset, double cell);
+  Candidate search_fine(const LikelihoodGrid& grid, const Candidate& c, double coarse_step);
   Pose2 refine(const LikelihoodGrid& grid, std::span<const Vec2> points, const Pose2& start, double* cost,
                int* iterations) const;
 
