@@ -136,8 +136,14 @@ void Logger::commit(LogRecord* r) {
 }
 
 void Logger::put_text(LogRecord* r, std::string_view s) {
-  const std::size_t room = LogRecord::kTextBytes - r->text_used;
-  if (room == 0) return;
+  // text[kTextBytes - 1] is never written and stays '\0': a text argument that finds no
+  // room left points there and reads as "" (it used to point past the buffer).
+  const std::size_t end = LogRecord::kTextBytes - 1;
+  if (r->text_used >= end) {
+    r->text_used = static_cast<std::uint16_t>(end);
+    return;
+  }
+  const std::size_t room = end - r->text_used;
   const std::size_t n = std::min(s.size(), room - 1);
   std::memcpy(r->text + r->text_used, s.data(), n);
   r->text[r->text_used + n] = '\0';

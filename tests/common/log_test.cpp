@@ -44,6 +44,13 @@ TEST(LogFormat, LongTextIsTruncatedNotOverflowed) {
   log.drain();
   ASSERT_EQ(cap.lines.size(), 1u);
   EXPECT_LT(cap.lines[0].size(), LogRecord::kTextBytes + 64);
+  // The first argument fills the record's text; the second finds no room and reads as
+  // "", never as whatever lies past the buffer.
+  const std::string& line = cap.lines[0];
+  const std::size_t bar = line.rfind('|');
+  ASSERT_NE(bar, std::string::npos) << line;
+  EXPECT_EQ(line.find_first_not_of('x', line.find('x')), bar) << line;
+  EXPECT_EQ(line.find_first_not_of("\n", bar + 1), std::string::npos) << line;
 }
 
 TEST(Logger, MinLevelFilters) {
