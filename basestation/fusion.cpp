@@ -219,6 +219,12 @@ void Fusion::apply_features(const cairn_FeatureObservations& m, Track& t) {
       batch.push_back(meas);
       continue;
     }
+    if (z.range > config_.candidate_range) {
+      // Beyond the association range: it could never be matched again, so every sighting
+      // would add a new landmark. Counted as rejected.
+      ++counters_.observations_rejected;
+      continue;
+    }
     lm_z.push_back(z);
     lm_R.push_back(mat2(f.cov));
   }

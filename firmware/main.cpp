@@ -1,58 +1,114 @@
-// cairn-robot: the robot executive.
+// cairn-robot: the robot executive. With a [devices] section it runs the drivers, the RT
+// loop and the local mapper (firmware/executive) and bridges them to DDS; without one it
+// is a status-only fleet member (no hardware).
 #include <CLI/CLI.hpp>
+#include <cstdio>
 
-#include "cairn.h"
 #include "common/config.hpp"
-#include "common/dds/topics.hpp"
 #include "common/log.hpp"
 #include "common/program.hpp"
+#include "firmware/navigator.hpp"
+#include "firmware/robot_bridge.hpp"
 #include "firmware/robot_config.hpp"
 
 using namespace cairn;
 
 namespace {
 
-int run(const std::string& config_path, int id_override, const std::string& name_override, double duration_s) {
+std::string describe(const firmware::RobotConfig& c) {
+  std::string s = "robot " + std::to_string(c.id) + " (" + c.name + ")";
+  if (!c.has_devices) return s + ": status only (no [devices] section)";
+  const auto& e = c.executive;
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                ": laser %s, drives %s (nodes %d, %d), power %s; RT period %.1f ms; scans every %d to the base; "
+                "%zu waypoint(s); link timeout %.1f s",
+                e.lms_uri.c_str(), e.can_uri.c_str(), e.master.nodes[0], e.master.nodes[1], e.power_uri.c_str(),
+                nanos_to_seconds(e.period) * 1e3, e.scan_publish_every, c.motion.waypoints.size(),
+                nanos_to_seconds(e.safety.link_timeout));
+  return s + buf;
+}
+
+void log_progress(const firmware::RobotConfig& cfg, firmware::Executive& exec, const firmware::RobotBridge& bridge) {
+  const firmware::RtSnapshot r = exec.rt_snapshot();
+  const auto& n = bridge.counters();
+  char line[400];
+  std::snprintf(line, sizeof line,
+                "robot %u: %s; local pose %.2f %.2f %.1f deg; scans %llu (matched %llu); loop p99 %.0f us, jitter max %.0f us, "
+                "misses %llu; sent odometry %llu, features %llu, scans %llu; corrections %llu",
+                cfg.id, firmware::stop_reason_text(r.stop), r.local_pose.x, r.local_pose.y, r.local_pose.theta * 57.29578,
+                static_cast<unsigned long long>(r.scans), static_cast<unsigned long long>(r.matched),
+                static_cast<double>(r.period_p99_us), static_cast<double>(r.jitter_max_us),
+                static_cast<unsigned long long>(r.misses), static_cast<unsigned long long>(n.odometry),
+                static_cast<unsigned long long>(n.features), static_cast<unsigned long long>(n.lasers),
+                static_cast<unsigned long long>(n.corrections));
+  CAIRN_LOG_INFO("robot", "{}", std::string_view(line));
+}
+
+int run(const std::string& config_path, int id_override, const std::string& name_override, double duration_s,
+        bool check_only) {
   firmware::RobotConfig cfg = firmware::load_robot_config(config_path);
   if (id_override > 0) {
     if (id_override > 250) throw cairn::ConfigError("--id: expected an integer in [1, 250], got " + std::to_string(id_override));
     cfg.id = static_cast<std::uint16_t>(id_override);
+    cfg.executive.robot_id = cfg.id;
     if (name_override.empty()) cfg.name = "robot-" + std::to_string(cfg.id);
   }
   if (!name_override.empty()) cfg.name = name_override;
+  if (check_only) {
+    std::printf("%s: OK\n%s\n", config_path.c_str(), describe(cfg).c_str());
+    return 0;
+  }
 
   logger().start();
   dds::Participant pp(cfg.dds);
-  CAIRN_LOG_INFO("robot", "robot {} ({}) starting; DDS {}", cfg.id, cfg.name, pp.describe());
-
-  dds::Topic<cairn_RobotStatus> status_topic(pp);
-  dds::QosSpec qos = dds::state_qos();
-  qos.liveliness_lease = cfg.liveliness_lease;
-  dds::Writer<cairn_RobotStatus> status_writer(pp, status_topic, qos);
-
-  cairn_RobotStatus status{};
-  status.robot_id = cfg.id;
-  dds::set_text(status.name, cfg.name);
-  status.mode = cairn_MODE_IDLE;
+  CAIRN_LOG_INFO("robot", "{}; DDS {}", describe(cfg), pp.describe());
+  firmware::RobotBridge bridge(pp, cfg);
+  std::unique_ptr<firmware::Executive> exec;
+  if (cfg.has_devices) {
+    exec = std::make_unique<firmware::Executive>(cfg.executive);
+    exec->start();
+  }
+  firmware::Navigator nav(cfg.motion);
 
   auto& clock = MonotonicClock::instance();
   const Nanos start = clock.now();
   const Nanos end = duration_s > 0 ? start + seconds_to_nanos(duration_s) : 0;
-  Nanos next = start;
+  const Nanos tick = exec ? cfg.bridge_period : 50 * kNanosPerMilli;
+  Nanos next_status = start, next_progress = start + 10 * kNanosPerSecond, next = start;
   while (!shutdown_requested() && (end == 0 || clock.now() < end)) {
-    status.seq++;
-    status.stamp_ns = clock.now();
-    status.log_dropped = static_cast<std::uint32_t>(logger().dropped());
-    if (!status_writer.write(status)) {
-      CAIRN_LOG_WARN("robot", "RobotStatus write failed: {}", dds_strretcode(status_writer.last_error()));
+    const Nanos now = clock.now();
+    if (exec) {
+      bridge.forward(*exec);
+      const bool heard = bridge.poll_inputs([&](const cairn_TaskAssignment& t) {
+        const std::string why = nav.on_task(t, bridge.local_to_global());
+        if (!why.empty()) CAIRN_LOG_WARN("robot", "{}", why);
+      });
+      if (heard) exec->note_link(now);
+      double v = 0, w = 0;
+      nav.command(exec->rt_snapshot().local_pose, &v, &w);
+      exec->set_velocity(v, w, now);
+      if (now >= next_progress) {
+        next_progress += 10 * kNanosPerSecond;
+        log_progress(cfg, *exec, bridge);
+      }
     }
-    next += cfg.status_period;
-    // Sleep in short steps so a signal ends the program promptly.
-    while (!shutdown_requested() && clock.now() < next) clock.sleep_until(std::min(next, clock.now() + 50 * kNanosPerMilli));
+    if (now >= next_status) {
+      next_status += cfg.status_period;
+      bridge.publish_status(exec.get(), now);
+    }
+    next += tick;
+    if (next < now) next = now;  // fell behind (a debugger, a stall): do not burst
+    clock.sleep_until(next);
   }
-  // Tell the base we left on purpose (it shows "left", not "lost").
-  status_writer.dispose(status);
-  CAIRN_LOG_INFO("robot", "robot {} stopping after {} status messages", cfg.id, status.seq);
+  if (exec) {
+    exec->stop();
+    bridge.forward(*exec);
+    for (const std::string& r : exec->rt_reports()) CAIRN_LOG_INFO("robot", "{}", r);
+    log_progress(cfg, *exec, bridge);
+  }
+  bridge.dispose();
+  CAIRN_LOG_INFO("robot", "robot {} stopping after {} status messages", cfg.id, bridge.counters().statuses);
   logger().stop();
   return 0;
 }
@@ -60,18 +116,21 @@ int run(const std::string& config_path, int id_override, const std::string& name
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"cairn-robot: the Cairn robot executive. Publishes the robot's status, odometry, scans and\n"
-               "features over DDS and drives the robot. DDS runs on the loopback-only profile unless the\n"
-               "configuration's [dds] section says otherwise."};
+  CLI::App app{"cairn-robot: the Cairn robot executive. Runs the laser, drive and power-board drivers, odometry,\n"
+               "local scan matching, feature extraction and safety in a real-time loop, and publishes the\n"
+               "robot's status, odometry, scans and features over DDS (docs/firmware.md). DDS runs on the\n"
+               "loopback-only profile unless the configuration's [dds] section says otherwise."};
   std::string config_path;
   int id = 0;
   std::string name;
   double duration = 0;
+  bool check = false;
   app.add_option("-c,--config", config_path, "robot configuration file (TOML), e.g. config/robot.toml")->required();
   app.add_option("--id", id, "override robot.id from the configuration (1..250)");
   app.add_option("--name", name, "override robot.name");
   app.add_option("--duration", duration, "stop after this many seconds (0 = run until SIGINT/SIGTERM)");
+  app.add_flag("--check-config", check, "validate the configuration, print what it would run, and exit");
   CLI11_PARSE(app, argc, argv);
   install_shutdown_handlers();
-  return run_program("cairn-robot", [&] { return run(config_path, id, name, duration); });
+  return run_program("cairn-robot", [&] { return run(config_path, id, name, duration, check); });
 }

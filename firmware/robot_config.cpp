@@ -1,11 +1,98 @@
 #include "firmware/robot_config.hpp"
 
+#include <cmath>
+
 #include "common/config.hpp"
+#include "drivers/modbus/power_config.hpp"
 
 namespace cairn::firmware {
+namespace {
 
-RobotConfig load_robot_config(const std::string& path) {
-  const ConfigDocument doc = ConfigDocument::load(path);
+Nanos seconds_key(const ConfigSection& s, const char* key, Nanos fallback, Range<double> range) {
+  return seconds_to_nanos(s.number_or(key, nanos_to_seconds(fallback), range));
+}
+
+void read_devices(const ConfigSection& d, ExecutiveConfig* e) {
+  e->lms_uri = d.string("lms");
+  const auto baud = d.integer_or("lms_baud", e->lms.target_baud, {9600, 500000});
+  if (baud != 9600 && baud != 19200 && baud != 38400 && baud != 500000) {
+    d.fail("lms_baud", "expected one of 9600, 19200, 38400, 500000 (the LMS2xx's rates), got " + std::to_string(baud));
+  }
+  e->lms.target_baud = static_cast<std::uint32_t>(baud);
+  e->lms.angle_deg = static_cast<std::uint16_t>(d.integer_or("lms_angle_deg", e->lms.angle_deg, {100, 180}));
+  if (e->lms.angle_deg != 100 && e->lms.angle_deg != 180) d.fail("lms_angle_deg", "expected 100 or 180");
+  const double res = d.number_or("lms_resolution_deg", e->lms.resolution_centideg / 100.0, {0.25, 1.0});
+  const int centi = static_cast<int>(std::lround(res * 100));
+  if (centi != 25 && centi != 50 && centi != 100) d.fail("lms_resolution_deg", "expected 1, 0.5 or 0.25");
+  if (centi == 25 && e->lms.angle_deg != 100) d.fail("lms_resolution_deg", "0.25 deg needs lms_angle_deg = 100");
+  e->lms.resolution_centideg = static_cast<std::uint16_t>(centi);
+  e->can_uri = d.string("can");
+  if (d.has("drive_nodes")) {
+    const auto nodes = d.numbers("drive_nodes", 2, 2);
+    for (double n : nodes) {
+      if (n != std::floor(n) || n < 1 || n > 127) d.fail("drive_nodes", "expected two CANopen node ids in [1, 127]");
+    }
+    if (nodes[0] == nodes[1]) d.fail("drive_nodes", "the left and right drives need different node ids");
+    e->master.nodes = {static_cast<std::uint8_t>(nodes[0]), static_cast<std::uint8_t>(nodes[1]), 0, 0};
+  }
+  e->power_uri = d.string("power");
+}
+
+void read_pose3(const ConfigSection& s, const char* key, Pose2* out) {
+  if (!s.has(key)) return;
+  const auto v = s.numbers(key, 3, 3);
+  *out = {v[0], v[1], v[2]};
+}
+
+void read_geometry(const ConfigSection& g, canopen::DiffDriveGeometry* geo) {
+  geo->wheel_radius_m = g.number_or("wheel_radius_m", geo->wheel_radius_m, {0.01, 2.0});
+  geo->track_m = g.number_or("track_m", geo->track_m, {0.05, 5.0});
+  geo->gear_ratio = g.number_or("gear_ratio", geo->gear_ratio, {0.01, 1000.0});
+  geo->encoder_counts_per_rev = g.number_or("encoder_counts_per_rev", geo->encoder_counts_per_rev, {1.0, 1e7});
+  geo->right_inverted = g.boolean_or("right_inverted", geo->right_inverted);
+}
+
+void read_rt(const ConfigSection& r, RobotConfig* c) {
+  ExecutiveConfig& e = c->executive;
+  e.period = seconds_key(r, "period_s", e.period, {0.001, 0.1});
+  e.master.sync_period = e.period;  // the drives are commanded once per RT cycle
+  e.rt_loop.priority = static_cast<int>(r.integer_or("priority", e.rt_loop.priority, {0, 99}));
+  e.io_threads.priority = static_cast<int>(r.integer_or("io_priority", e.io_threads.priority, {0, 99}));
+  e.rt_loop.cpu = static_cast<int>(r.integer_or("cpu", e.rt_loop.cpu, {-1, 1023}));
+  e.rt_loop.lock_memory = r.boolean_or("lock_memory", e.rt_loop.lock_memory);
+  c->bridge_period = seconds_key(r, "bridge_period_s", c->bridge_period, {0.0005, 0.1});
+}
+
+void read_safety(const ConfigSection& s, SafetyLimits* l) {
+  l->max_v = s.number_or("max_v", l->max_v, {0.0, 5.0});
+  l->max_w = s.number_or("max_w", l->max_w, {0.0, 10.0});
+  l->max_acc = s.number_or("max_acc", l->max_acc, {0.01, 20.0});
+  l->max_alpha = s.number_or("max_alpha", l->max_alpha, {0.01, 50.0});
+  l->link_timeout = seconds_key(s, "link_timeout_s", l->link_timeout, {0.0, 600.0});
+  l->laser_timeout = seconds_key(s, "laser_timeout_s", l->laser_timeout, {0.05, 60.0});
+  l->command_timeout = seconds_key(s, "command_timeout_s", l->command_timeout, {0.05, 60.0});
+  l->power_timeout = seconds_key(s, "power_timeout_s", l->power_timeout, {0.05, 60.0});
+}
+
+void read_mapping(const ConfigSection& m, ExecutiveConfig* e) {
+  e->scan_publish_every = static_cast<int>(m.integer_or("scan_publish_every", e->scan_publish_every, {1, 1000}));
+  e->localmap.keyframes = static_cast<int>(m.integer_or("keyframes", e->localmap.keyframes, {1, 100}));
+  e->localmap.grid.size_cells = static_cast<int>(m.integer_or("grid_cells", e->localmap.grid.size_cells, {64, 4096}));
+  e->localmap.grid.resolution_m = m.number_or("grid_resolution_m", e->localmap.grid.resolution_m, {0.01, 0.5});
+  e->localmap.max_range_m = m.number_or("max_range_m", e->localmap.max_range_m, {0.5, 80.0});
+  if (const char* why = localmap::validate(e->localmap)) m.fail("keyframes", std::string("local map: ") + why);
+}
+
+void read_motion(const ConfigSection& m, MotionConfig* motion) {
+  motion->follower.speed = m.number_or("speed", motion->follower.speed, {0.0, 5.0});
+  motion->follower.loop = m.boolean_or("loop", motion->follower.loop);
+  if (!m.has("waypoints")) return;
+  const auto v = m.numbers("waypoints", 2, 2 * 256);
+  if (v.size() % 2) m.fail("waypoints", "expected a flat list of x, y pairs (m, local frame), got an odd count");
+  for (std::size_t i = 0; i + 1 < v.size(); i += 2) motion->waypoints.emplace_back(v[i], v[i + 1]);
+}
+
+RobotConfig read(const ConfigDocument& doc) {
   const ConfigSection root = doc.root();
   RobotConfig c;
   const ConfigSection robot = root.section("robot");
@@ -16,8 +103,29 @@ RobotConfig load_robot_config(const std::string& path) {
     c.status_period = seconds_to_nanos(status->number_or("period_s", 1.0, {0.01, 60.0}));
     c.liveliness_lease = seconds_to_nanos(status->number_or("liveliness_lease_s", 1.5, {0.1, 60.0}));
   }
+  if (const auto d = root.optional_section("devices")) {
+    c.has_devices = true;
+    read_devices(*d, &c.executive);
+  }
+  if (const auto p = root.optional_section("power")) c.executive.power_map = modbus::register_map_from_config(*p);
+  if (const auto l = root.optional_section("laser")) read_pose3(*l, "mount", &c.executive.laser_mount);
+  if (const auto g = root.optional_section("geometry")) read_geometry(*g, &c.executive.geometry);
+  if (const auto r = root.optional_section("rt")) read_rt(*r, &c);
+  if (const auto s = root.optional_section("safety")) read_safety(*s, &c.executive.safety);
+  if (const auto m = root.optional_section("mapping")) read_mapping(*m, &c.executive);
+  if (const auto m = root.optional_section("motion")) read_motion(*m, &c.motion);
+  c.motion.follower.max_w = std::min(c.motion.follower.max_w, c.executive.safety.max_w);
   doc.finish();
+  c.executive.robot_id = c.id;
   return c;
+}
+
+}  // namespace
+
+RobotConfig load_robot_config(const std::string& path) { return read(ConfigDocument::load(path)); }
+
+RobotConfig parse_robot_config(const std::string& text, const std::string& name) {
+  return read(ConfigDocument::parse(text, name));
 }
 
 }  // namespace cairn::firmware

@@ -1,13 +1,25 @@
 // The robot's configuration (config/robot.toml), read through the strict schema.
+// Without a [devices] section cairn-robot runs status-only (no hardware: a DDS
+// presence for fleet tests); with it, the full executive over the named devices.
 #pragma once
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "common/clock.hpp"
 #include "common/dds/profile.hpp"
+#include "firmware/executive/executive.hpp"
+#include "firmware/executive/path_follower.hpp"
 
 namespace cairn::firmware {
+
+/// A scripted path in the robot's local frame (its start pose is the origin); a
+/// TaskAssignment from the base station replaces it.
+struct MotionConfig {
+  std::vector<Vec2> waypoints;
+  FollowerConfig follower;
+};
 
 struct RobotConfig {
   std::uint16_t id = 0;
@@ -15,9 +27,15 @@ struct RobotConfig {
   dds::DdsProfile dds;
   Nanos status_period = kNanosPerSecond;
   Nanos liveliness_lease = 1500 * kNanosPerMilli;
+  bool has_devices = false;    // [devices] present: run the executive
+  ExecutiveConfig executive;   // robot_id mirrors `id`
+  MotionConfig motion;
+  Nanos bridge_period = 2 * kNanosPerMilli;  // how often the DDS side drains the RT queues
 };
 
 /// Loads and validates a robot configuration; throws ConfigError naming file, key and expected form.
 RobotConfig load_robot_config(const std::string& path);
+/// The same from TOML text (`name` is used in messages).
+RobotConfig parse_robot_config(const std::string& text, const std::string& name);
 
 }  // namespace cairn::firmware

@@ -1,13 +1,130 @@
-// cairn-hil: the hardware-in-the-loop bench. Today: `cairn-hil lms` serves an emulated
-// SICK LMS2xx over a pty or TCP, scanning a world from a fixed pose, until interrupted.
+// cairn-hil: the hardware-in-the-loop bench.
+//   cairn-hil lms     serves an emulated SICK LMS2xx over a pty or TCP, scanning a world
+//                     from a fixed pose, until interrupted.
+//   cairn-hil robots  serves whole robots (laser, two CiA 402 drives, power board, body
+//                     physics) in a world, writes each robot's cairn-robot configuration,
+//                     logs ground truth and injects scheduled device faults.
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <memory>
 #include <sstream>
 
 #include "common/program.hpp"
+#include "hil/bench/fleet_bench.hpp"
 #include "hil/lms2xx/lms_server.hpp"
 
 using namespace cairn;
+
+namespace {
+
+void sleep_while_running(Nanos until) {
+  auto& clock = MonotonicClock::instance();
+  while (!shutdown_requested() && clock.now() < until) clock.sleep_until(std::min(until, clock.now() + 50 * kNanosPerMilli));
+}
+
+int run_lms(const std::string& world_path, const std::string& pose_text, int tcp_port, double noise, double boot) {
+  const hil::World world = hil::World::load(world_path);
+  Pose2 pose;
+  char c1 = 0, c2 = 0;
+  std::istringstream ps(pose_text);
+  if (!(ps >> pose.x >> c1 >> pose.y >> c2 >> pose.theta) || c1 != ',' || c2 != ',') {
+    throw std::runtime_error("--pose: expected x,y,theta, got '" + pose_text + "'");
+  }
+  hil::LmsDeviceConfig cfg;
+  cfg.range_noise_m = noise;
+  cfg.boot_time_s = boot;
+  hil::LmsServer server(tcp_port >= 0 ? hil::LmsServer::Link::kTcp : hil::LmsServer::Link::kPty, cfg, &world,
+                        [pose](Nanos) { return pose; }, std::max(tcp_port, 0));
+  server.start();
+  std::printf("cairn-hil: LMS2xx emulator at %s (world %s, pose %.2f,%.2f,%.2f)\n", server.uri().c_str(),
+              world_path.c_str(), pose.x, pose.y, pose.theta);
+  std::fflush(stdout);
+  while (!shutdown_requested()) sleep_while_running(MonotonicClock::instance().now() + kNanosPerSecond);
+  server.with_device([](hil::LmsDevice& d) {
+    const auto& c = d.counters();
+    std::printf("cairn-hil: %llu requests, %llu scans sent, %llu dropped (line busy), %llu baud changes\n",
+                static_cast<unsigned long long>(c.requests), static_cast<unsigned long long>(c.scans_sent),
+                static_cast<unsigned long long>(c.scans_dropped_busy), static_cast<unsigned long long>(c.baud_changes));
+    return 0;
+  });
+  server.stop();
+  return 0;
+}
+
+struct RobotsOptions {
+  std::string world = "hil/worlds/office.world";
+  std::vector<int> ids;
+  int count = 1;
+  std::string robot_template = "config/robot-hil.toml";
+  std::string out_dir = "hil-run";
+  std::string truth_path;
+  std::vector<std::string> faults;
+  double duration = 0, report_period = 5.0;
+  bool lms_tcp = false;
+};
+
+int run_robots(const RobotsOptions& o) {
+  const hil::World world = hil::World::load(o.world);
+  hil::FleetBenchConfig cfg;
+  cfg.robots = o.ids;
+  if (cfg.robots.empty()) {
+    for (int i = 1; i <= o.count; ++i) cfg.robots.push_back(i);
+  }
+  cfg.robot_template = o.robot_template;
+  cfg.out_dir = o.out_dir;
+  cfg.lms_tcp = o.lms_tcp;
+  for (const std::string& f : o.faults) cfg.faults.push_back(hil::ScheduledFault::parse(f));
+  hil::FleetBench fleet(world, cfg);
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> truth(nullptr, &std::fclose);
+  if (!o.truth_path.empty()) {
+    truth.reset(std::fopen(o.truth_path.c_str(), "w"));
+    if (!truth) throw std::runtime_error("--truth: cannot write " + o.truth_path);
+    std::fprintf(truth.get(), "# t_s robot x y theta odometer_m (world frame, ground truth)\n");
+  }
+  fleet.start();
+  const std::vector<std::string> paths = fleet.write_robot_configs();
+  for (std::size_t i = 0; i < fleet.size(); ++i) {
+    std::printf("cairn-hil: robot %d: laser %s, drives %s, power %s, %zu route waypoint(s) -> %s\n", fleet.id(i),
+                fleet.bench(i).lms_uri().c_str(), fleet.bench(i).can_uri().c_str(), fleet.bench(i).power_uri().c_str(),
+                fleet.local_route(i).size(), paths[i].c_str());
+  }
+  std::printf("cairn-hil: ready: %zu robot(s) in %s; start each with cairn-robot --config <file above>\n", fleet.size(),
+              o.world.c_str());
+  std::fflush(stdout);
+
+  auto& clock = MonotonicClock::instance();
+  const Nanos start = clock.now();
+  Nanos next = start, next_report = start + seconds_to_nanos(o.report_period);
+  while (!shutdown_requested() && (o.duration <= 0 || clock.now() < start + seconds_to_nanos(o.duration))) {
+    const Nanos now = clock.now();
+    const double t = nanos_to_seconds(now - start);
+    for (const std::string& line : fleet.apply_faults(t)) std::printf("[%8.3f] cairn-hil: %s\n", t, line.c_str());
+    if (truth) fleet.write_truth(truth.get(), t);
+    if (now >= next_report) {
+      next_report += seconds_to_nanos(o.report_period);
+      for (std::size_t i = 0; i < fleet.size(); ++i) {
+        const hil::TruthSample s = fleet.bench(i).truth();
+        std::printf("[%8.3f] cairn-hil: robot %d at %.2f %.2f %.0f deg, travelled %.1f m\n", t, fleet.id(i), s.pose.x,
+                    s.pose.y, s.pose.theta * 57.29578, s.odometer);
+      }
+    }
+    std::fflush(stdout);
+    next += 100 * kNanosPerMilli;
+    sleep_while_running(next);
+  }
+  const double t = nanos_to_seconds(clock.now() - start);
+  if (truth) fleet.write_truth(truth.get(), t);
+  for (std::size_t i = 0; i < fleet.size(); ++i) {
+    const hil::TruthSample s = fleet.bench(i).truth();
+    std::printf("cairn-hil: final robot %d at %.3f %.3f %.4f rad, travelled %.2f m\n", fleet.id(i), s.pose.x, s.pose.y,
+                s.pose.theta, s.odometer);
+  }
+  std::fflush(stdout);
+  fleet.stop();
+  return 0;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"cairn-hil: hardware-in-the-loop bench: device emulators that speak the devices' real wire protocols"};
@@ -21,35 +138,27 @@ int main(int argc, char** argv) {
   lms->add_option("--tcp", tcp_port, "serve on 127.0.0.1:PORT (0 = any free port) instead of a pty");
   lms->add_option("--noise", noise, "range noise sigma (m)");
   lms->add_option("--boot", boot, "seconds from power-on to the power-on telegram");
+
+  RobotsOptions ro;
+  auto* robots = app.add_subcommand(
+      "robots", "serve whole robots (LMS2xx on a pty, two CiA 402 drives on a user-space CAN bus, a Modbus TCP power\n"
+                "board, body physics) in a world; writes a cairn-robot configuration per robot");
+  robots->add_option("--world", ro.world, "world file (robots start at its 'start' lines and follow its 'route' lines)")
+      ->check(CLI::ExistingFile)->capture_default_str();
+  robots->add_option("--count", ro.count, "robots 1..N")->check(CLI::Range(1, 32))->capture_default_str();
+  robots->add_option("--ids", ro.ids, "robot ids instead of --count (e.g. --ids 2 5)");
+  robots->add_option("--template", ro.robot_template, "robot configuration template (its [robot], [devices] and [motion] waypoints are filled in)")
+      ->check(CLI::ExistingFile)->capture_default_str();
+  robots->add_option("--out", ro.out_dir, "directory for the written robot-<id>.toml files")->capture_default_str();
+  robots->add_option("--truth", ro.truth_path, "write ground truth at 10 Hz to this file: t_s robot x y theta odometer_m");
+  robots->add_option("--fault", ro.faults, "schedule a device fault T:ROBOT:KIND[:DURATION] (kinds estop, laser, drive, power); repeatable");
+  robots->add_option("--duration", ro.duration, "stop after this many seconds (0 = until SIGINT/SIGTERM)");
+  robots->add_option("--report", ro.report_period, "seconds between ground-truth progress lines")->capture_default_str();
+  robots->add_flag("--lms-tcp", ro.lms_tcp, "serve the lasers on 127.0.0.1 TCP ports instead of ptys");
   CLI11_PARSE(app, argc, argv);
   install_shutdown_handlers();
   return run_program("cairn-hil", [&] {
-    const hil::World world = hil::World::load(world_path);
-    Pose2 pose;
-    char c1 = 0, c2 = 0;
-    std::istringstream ps(pose_text);
-    if (!(ps >> pose.x >> c1 >> pose.y >> c2 >> pose.theta) || c1 != ',' || c2 != ',') {
-      throw std::runtime_error("--pose: expected x,y,theta, got '" + pose_text + "'");
-    }
-    hil::LmsDeviceConfig cfg;
-    cfg.range_noise_m = noise;
-    cfg.boot_time_s = boot;
-    hil::LmsServer server(tcp_port >= 0 ? hil::LmsServer::Link::kTcp : hil::LmsServer::Link::kPty, cfg, &world,
-                          [pose](Nanos) { return pose; }, std::max(tcp_port, 0));
-    server.start();
-    std::printf("cairn-hil: LMS2xx emulator at %s (world %s, pose %.2f,%.2f,%.2f)\n", server.uri().c_str(),
-                world_path.c_str(), pose.x, pose.y, pose.theta);
-    std::fflush(stdout);
-    auto& clock = MonotonicClock::instance();
-    while (!shutdown_requested()) clock.sleep_until(clock.now() + 50 * kNanosPerMilli);
-    server.with_device([](hil::LmsDevice& d) {
-      const auto& c = d.counters();
-      std::printf("cairn-hil: %llu requests, %llu scans sent, %llu dropped (line busy), %llu baud changes\n",
-                  static_cast<unsigned long long>(c.requests), static_cast<unsigned long long>(c.scans_sent),
-                  static_cast<unsigned long long>(c.scans_dropped_busy), static_cast<unsigned long long>(c.baud_changes));
-      return 0;
-    });
-    server.stop();
-    return 0;
+    if (*robots) return run_robots(ro);
+    return run_lms(world_path, pose_text, tcp_port, noise, boot);
   });
 }

@@ -41,6 +41,7 @@ Executive::Executive(const ExecutiveConfig& cfg, ThreadHooks hooks)
       mapper_(cfg.localmap),
       odometry_(cfg.geometry, cfg.odometry),
       safety_(cfg.safety),
+      steps_(std::make_unique<TimedStep[]>(std::max<std::size_t>(cfg.odometry_history, 1))),
       points_(std::make_unique<Vec2[]>(lms::kMaxBeams)),
       scan_work_(std::make_unique<lms::LmsScan>()),
       laser_msg_(std::make_unique<cairn_LaserScan>()),
@@ -149,6 +150,7 @@ void Executive::can_thread() {
   copy_text(&d[1].name, "drive_right");
   canopen::WheelCommand cmd;
   std::uint64_t updates = 0;
+  Nanos wheel_stamp = 0;
   while (running_.load(std::memory_order_relaxed)) {
     if (enable_request_.exchange(false)) master_->enable_all();
     master_->step();
@@ -157,13 +159,13 @@ void Executive::can_thread() {
     master_->command(velocities);
     const auto& l = master_->feedback(0);
     const auto& r = master_->feedback(1);
+    // Written every pass (the enabled flag matters even without new positions); the
+    // stamp moves only when new positions arrive.
     if (l.updates + r.updates != updates) {
       updates = l.updates + r.updates;
-      wheels_.write({l.position, r.position, updates, master_->all_enabled()});
-    } else {
-      WheelState w{l.position, r.position, updates, master_->all_enabled()};
-      wheels_.write(w);
+      wheel_stamp = clock.now();
     }
+    wheels_.write({l.position, r.position, updates, master_->all_enabled(), wheel_stamp});
     const Nanos now = clock.now();
     if (now >= next_snapshot) {
       next_snapshot = now + 100 * kNanosPerMilli;
@@ -258,7 +260,17 @@ void Executive::rt_thread() {
 void Executive::rt_cycle(Nanos now, double dt) {
   // Wheel odometry since the last cycle.
   WheelState ws;
-  if (wheels_.read(&ws)) accumulate(&pending_, odometry_.update(ws.left, ws.right));
+  if (wheels_.read(&ws) && ws.stamp != last_wheel_stamp_) {
+    last_wheel_stamp_ = ws.stamp;
+    const std::size_t cap = std::max<std::size_t>(cfg_.odometry_history, 1);
+    if (steps_count_ == cap) {  // full: the oldest step joins the folded prefix
+      accumulate(&folded_, steps_[steps_head_].step);
+      steps_head_ = (steps_head_ + 1) % cap;
+      --steps_count_;
+    }
+    steps_[(steps_head_ + steps_count_) % cap] = {ws.stamp, odometry_.update(ws.left, ws.right)};
+    ++steps_count_;
+  }
 
   // Scans: at most two per cycle (the laser makes < 1 per 10 ms); the rest wait.
   for (int k = 0; k < 2 && scan_q_.pop(scan_work_.get()); ++k) process_scan(*scan_work_);
@@ -295,8 +307,27 @@ void Executive::rt_cycle(Nanos now, double dt) {
   snap_.stops = safety_.stops();
   snap_.battery_voltage = ps.voltage;
   snap_.battery_soc = ps.soc;
-  snap_.local_pose = compose(mapper_.pose(), pending_.delta);
+  snap_.local_pose = compose(mapper_.pose(), odometry_pending().delta);
   snap_.overflows = scan_q_.overflows() + odometry_q_.overflows() + laser_q_.overflows() + feature_q_.overflows();
+}
+
+OdometryStep Executive::odometry_until(Nanos t) {
+  const std::size_t cap = std::max<std::size_t>(cfg_.odometry_history, 1);
+  OdometryStep out = folded_;
+  folded_ = OdometryStep{};
+  while (steps_count_ > 0 && steps_[steps_head_].t <= t) {
+    accumulate(&out, steps_[steps_head_].step);
+    steps_head_ = (steps_head_ + 1) % cap;
+    --steps_count_;
+  }
+  return out;
+}
+
+OdometryStep Executive::odometry_pending() const {
+  const std::size_t cap = std::max<std::size_t>(cfg_.odometry_history, 1);
+  OdometryStep out = folded_;
+  for (std::size_t i = 0; i < steps_count_; ++i) accumulate(&out, steps_[(steps_head_ + i) % cap].step);
+  return out;
 }
 
 void Executive::process_scan(const lms::LmsScan& scan) {
@@ -311,10 +342,14 @@ void Executive::process_scan(const lms::LmsScan& scan) {
     const double a = scan.angle_min + scan.angle_increment * static_cast<double>(i);
     points_[n++] = transform_point(cfg_.laser_mount, Vec2(r * std::cos(a), r * std::sin(a)));
   }
-  Mat3 odom_cov = pending_.covariance;
+  // Odometry up to the middle of the sweep, where the scan (matched as a rigid body) was
+  // taken on average; motion after it stays for the next scan. Taking all of it made
+  // the pose run ahead of the scan along a corridor, where the match cannot correct it.
+  const Nanos mid_sweep = scan.stamp + static_cast<Nanos>(0.5 * scan.beam_period_s * scan.count * 1e9);
+  const OdometryStep odom = odometry_until(mid_sweep);
+  Mat3 odom_cov = odom.covariance;
   odom_cov.diagonal().array() += 1e-8;
-  const localmap::LocalMapUpdate u = mapper_.add_scan(std::span<const Vec2>(points_.get(), n), pending_.delta, odom_cov);
-  pending_ = OdometryStep{};
+  const localmap::LocalMapUpdate u = mapper_.add_scan(std::span<const Vec2>(points_.get(), n), odom.delta, odom_cov);
   snap_.scans = mapper_.counters().scans;
   snap_.matched = mapper_.counters().matched;
 

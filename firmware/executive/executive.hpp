@@ -55,6 +55,7 @@ struct ExecutiveConfig {
   FeatureConfig features;
   int scan_publish_every = 10;
   std::size_t scan_queue = 8, odometry_queue = 256, laser_queue = 4, feature_queue = 32;
+  std::size_t odometry_history = 64;  // wheel steps kept to split odometry at a scan's time (>= scan latency / period)
   SafetyLimits safety;
 };
 
@@ -118,7 +119,14 @@ class Executive {
     std::int32_t left = 0, right = 0;
     std::uint64_t updates = 0;
     bool enabled = false;
+    Nanos stamp = 0;  // when these positions arrived
   };
+  struct TimedStep {
+    Nanos t = 0;
+    OdometryStep step;
+  };
+  OdometryStep odometry_until(Nanos t);
+  OdometryStep odometry_pending() const;
   struct Sink : lms::ScanSink {
     Executive* self = nullptr;
     void on_scan(const lms::LmsScan& s) override;
@@ -155,7 +163,12 @@ class Executive {
   localmap::LocalMapper mapper_;
   DiffOdometry odometry_;
   SafetySupervisor safety_;
-  OdometryStep pending_;  // wheel odometry since the last scan
+  // Wheel odometry since the last scan: steps older than the ring folded into `folded_`,
+  // then the ring (oldest first). A scan takes the steps up to its own time.
+  OdometryStep folded_;
+  std::unique_ptr<TimedStep[]> steps_;
+  std::size_t steps_head_ = 0, steps_count_ = 0;
+  Nanos last_wheel_stamp_ = -1;
   Pose2 published_pose_;
   std::unique_ptr<Vec2[]> points_;
   std::unique_ptr<lms::LmsScan> scan_work_;

@@ -1,5 +1,6 @@
 #include "firmware/executive/features.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace cairn::firmware {
@@ -20,7 +21,22 @@ void emit(const lms::LmsScan& scan, std::size_t first, std::size_t last, const P
   f.robot = width >= cfg.robot_marker_min_width_m;
   f.width = width;
   const double bearing_s = 0.5 * (a0 + a1);
-  const double range_s = f.robot ? r : r + cfg.pole_radius_m;
+  double range_s = r;
+  if (!f.robot) {
+    // The pole's centre: each beam hits the circle of radius R around a centre at
+    // distance d along the run's bearing, so d = r cos(δ) + sqrt(R² - (r sin δ)²) per
+    // beam (δ = beam angle - bearing); averaged. (Mean range + R overshoots: the edge
+    // beams graze the pole and come back long.)
+    const double R = cfg.pole_radius_m;
+    double d = 0;
+    for (std::size_t i = first; i <= last; ++i) {
+      const double ri = scan.range_mm[i] * 1e-3;
+      const double delta = scan.angle_min + scan.angle_increment * static_cast<double>(i) - bearing_s;
+      const double lateral = ri * std::sin(delta);
+      d += ri * std::cos(delta) + std::sqrt(std::max(0.0, R * R - lateral * lateral));
+    }
+    range_s = d / static_cast<double>(last - first + 1);
+  }
   // Sensor frame -> robot frame (the mount's offset changes range and bearing).
   const RangeBearing rb = observe_point(Pose2{}, transform_point(mount, point_from_observation(Pose2{}, {range_s, bearing_s})));
   f.range = rb.range;

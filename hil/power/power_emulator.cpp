@@ -111,6 +111,7 @@ void PowerEmulator::update_model() {
 }
 
 int PowerEmulator::handle(std::uint8_t* query, int len, void* ctx) {
+  if (silent_) return 0;
   std::lock_guard l(mutex_);
   update_model();
   const int rc = modbus_reply(static_cast<modbus_t*>(ctx), query, len, as_mapping(mapping_));

@@ -35,6 +35,9 @@ class PowerEmulator {
   /// What a driver opens: tcp:127.0.0.1:PORT or rtu:/dev/pts/N:115200.
   std::string uri() const { return uri_; }
   void press_estop(bool pressed);
+  /// A fault: the board stops answering (requests are read and dropped), as when its
+  /// controller hangs or the cable is pulled.
+  void set_silent(bool silent) { silent_ = silent; }
   bool motor_relay() const;
   double soc() const;
   std::uint64_t requests() const { return requests_.load(); }
@@ -56,7 +59,7 @@ class PowerEmulator {
   void* mapping_ = nullptr;            // modbus_mapping_t*
   mutable std::mutex mutex_;
   std::atomic<bool> running_{true};
-  std::atomic<bool> estop_{false}, relay_{false};
+  std::atomic<bool> estop_{false}, relay_{false}, silent_{false};
   std::atomic<std::uint64_t> requests_{0};
   Nanos last_update_ = 0;
   std::thread server_, relay_thread_;

@@ -57,6 +57,20 @@ World World::parse(const std::string& text, const std::string& name) {
     } else if (kw == "start") {
       const auto v = nums(4);
       w.starts_.emplace_back(static_cast<int>(v[0]), Pose2{v[1], v[2], v[3]});
+    } else if (kw == "route") {
+      // route ID X1 Y1 [X2 Y2 ...]: a variable count, so not through nums().
+      double id = 0;
+      if (!(ls >> id) || id < 1 || id != std::floor(id)) fail("route: expects a robot id (an integer >= 1) first");
+      std::vector<Vec2> pts;
+      double x = 0, y = 0;
+      while (ls >> x) {
+        if (!(ls >> y) || !std::isfinite(x) || !std::isfinite(y)) fail("route: expects x y pairs after the id");
+        pts.emplace_back(x, y);
+      }
+      if (!ls.eof()) fail("route: expects numbers after the id");
+      if (pts.empty()) fail("route: needs at least one x y waypoint");
+      auto& r = w.routes_.emplace_back(static_cast<int>(id), std::vector<Vec2>{});
+      r.second = std::move(pts);
     } else if (kw == "random") {
       const auto v = nums(3);
       if (v[0] <= 0 || v[0] >= 0.6 || v[2] <= 0) fail("random FRACTION SEED CELL: fraction in (0, 0.6), cell > 0");
@@ -83,7 +97,7 @@ World World::parse(const std::string& text, const std::string& name) {
         ++placed;
       }
     } else {
-      fail("unknown keyword '" + kw + "' (expected bounds, wall, box, circle, pole, start, random)");
+      fail("unknown keyword '" + kw + "' (expected bounds, wall, box, circle, pole, start, route, random)");
     }
   }
   return w;
@@ -165,6 +179,14 @@ std::vector<Vec2> World::poles() const {
   std::vector<Vec2> out;
   for (const Circle& c : circles_) {
     if (c.reflective && !c.robot) out.push_back(c.c);
+  }
+  return out;
+}
+
+std::vector<Vec2> World::route(int id) const {
+  std::vector<Vec2> out;
+  for (const auto& [i, r] : routes_) {
+    if (i == id) out.insert(out.end(), r.begin(), r.end());
   }
   return out;
 }

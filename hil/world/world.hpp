@@ -9,6 +9,7 @@
 //   circle  X Y R                        a round obstacle
 //   pole    X Y R                        a retroreflective pole (a landmark)
 //   start   ID X Y THETA                 a robot's start pose
+//   route   ID X1 Y1 X2 Y2 ...           a scripted path for robot ID (world frame; lines add up)
 //   random  FRACTION SEED CELL           fill the bounds with square obstacles covering FRACTION
 #pragma once
 
@@ -57,6 +58,8 @@ class World {
   const std::vector<Circle>& circles() const { return circles_; }
   std::vector<Vec2> poles() const;
   std::optional<Pose2> start(int id) const;
+  /// Robot `id`'s scripted waypoints (world frame), empty when it has none.
+  std::vector<Vec2> route(int id) const;
   struct Bounds {
     double xmin = -10, ymin = -10, xmax = 10, ymax = 10;
   };
@@ -69,6 +72,7 @@ class World {
   std::vector<Segment> segments_;
   std::vector<Circle> circles_;
   std::vector<std::pair<int, Pose2>> starts_;
+  std::vector<std::pair<int, std::vector<Vec2>>> routes_;
 };
 
 }  // namespace cairn::hil

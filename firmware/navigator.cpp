@@ -1,0 +1,48 @@
+#include "firmware/navigator.hpp"
+
+#include <cmath>
+#include <vector>
+
+#include "firmware/robot_config.hpp"
+
+namespace cairn::firmware {
+
+Navigator::Navigator(const MotionConfig& cfg) : follower_cfg_(cfg.follower) {
+  if (!cfg.waypoints.empty()) follower_ = std::make_unique<PathFollower>(cfg.waypoints, follower_cfg_);
+}
+
+std::string Navigator::on_task(const cairn_TaskAssignment& task, const std::optional<Pose2>& local_to_global) {
+  if (task.task_id == task_id_) return {};  // a repeat (the topic is latched)
+  switch (task.kind) {
+    case cairn_TASK_STOP:
+    case cairn_TASK_IDLE:
+      follower_.reset();
+      task_id_ = task.task_id;
+      return {};
+    case cairn_TASK_GOTO:
+    case cairn_TASK_EXPLORE: {
+      if (!local_to_global) return "task " + std::to_string(task.task_id) + ": no PoseCorrection yet, no global frame to follow it in";
+      const unsigned n = std::min<unsigned>(task.n_path, cairn_MAX_PATH);
+      std::vector<Vec2> local;
+      for (unsigned i = 0; i < n; ++i) {
+        const Vec2 g(task.path_xy[2 * i], task.path_xy[2 * i + 1]);
+        if (!std::isfinite(g.x()) || !std::isfinite(g.y())) return "task " + std::to_string(task.task_id) + ": non-finite waypoint";
+        local.push_back(inverse_transform_point(*local_to_global, g));
+      }
+      const Vec2 target(task.target_x, task.target_y);
+      if (!std::isfinite(target.x()) || !std::isfinite(target.y())) return "task " + std::to_string(task.task_id) + ": non-finite target";
+      local.push_back(inverse_transform_point(*local_to_global, target));
+      follower_ = std::make_unique<PathFollower>(std::move(local), follower_cfg_);
+      task_id_ = task.task_id;
+      return {};
+    }
+  }
+  return "task " + std::to_string(task.task_id) + ": unknown kind " + std::to_string(static_cast<int>(task.kind));
+}
+
+void Navigator::command(const Pose2& local_pose, double* v, double* w) {
+  *v = *w = 0;
+  if (follower_) follower_->command(local_pose, v, w);
+}
+
+}  // namespace cairn::firmware

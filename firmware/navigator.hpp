@@ -1,0 +1,35 @@
+// The robot's non-RT motion source: follows the configured path (local frame) until
+// the base station assigns a task; a GOTO task's path arrives in the global frame and
+// is taken into the local frame through the latest PoseCorrection. Pure.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "cairn.h"
+#include "common/se2.hpp"
+#include "firmware/executive/path_follower.hpp"
+
+namespace cairn::firmware {
+
+struct MotionConfig;
+
+class Navigator {
+ public:
+  explicit Navigator(const MotionConfig& cfg);
+  /// Applies a task. Returns an empty string, or why it was refused (a GOTO before
+  /// any PoseCorrection has no frame to be followed in; a NaN in the path).
+  std::string on_task(const cairn_TaskAssignment& task, const std::optional<Pose2>& local_to_global);
+  /// Velocity to request now (zero when idle or done).
+  void command(const Pose2& local_pose, double* v, double* w);
+  bool active() const { return follower_ != nullptr && !follower_->done(); }
+  std::uint32_t task_id() const { return task_id_; }
+
+ private:
+  FollowerConfig follower_cfg_;
+  std::unique_ptr<PathFollower> follower_;
+  std::uint32_t task_id_ = 0;
+};
+
+}  // namespace cairn::firmware

@@ -1,0 +1,84 @@
+// The robot's DDS side (a non-RT worker): drains the executive's queues onto the
+// OdometryIncrement, LaserScan and FeatureObservations topics, publishes RobotStatus
+// (loop statistics, stop reason, devices), and takes this robot's PoseCorrection and
+// TaskAssignment, which keep the base-station link alive. With no executive (a robot
+// configured without [devices]) it publishes status only.
+#pragma once
+
+#include <memory>
+#include <optional>
+
+#include "cairn.h"
+#include "common/dds/topics.hpp"
+#include "firmware/executive/executive.hpp"
+#include "firmware/robot_config.hpp"
+
+namespace cairn::firmware {
+
+struct BridgeCounters {
+  std::uint64_t odometry = 0, lasers = 0, features = 0, statuses = 0, corrections = 0, tasks = 0, write_failures = 0;
+};
+
+class RobotBridge {
+ public:
+  RobotBridge(const dds::Participant& pp, const RobotConfig& cfg);
+  /// Writes whatever the executive queued. Returns the number of samples written.
+  std::size_t forward(Executive& exec);
+  /// Fills and writes RobotStatus (exec may be null: status-only robot).
+  void publish_status(Executive* exec, Nanos now);
+  /// Takes this robot's PoseCorrection and TaskAssignment samples; returns true when any
+  /// arrived (the link is alive). `on_task` is called for each task.
+  template <typename OnTask>
+  bool poll_inputs(OnTask&& on_task);
+  /// The latest local->global transform from the base station, if any.
+  const std::optional<Pose2>& local_to_global() const { return local_to_global_; }
+  /// Tells the base the robot left on purpose (it shows "left", not "lost").
+  void dispose();
+  const BridgeCounters& counters() const { return counters_; }
+  const cairn_RobotStatus& status() const { return status_; }
+
+ private:
+  template <typename T>
+  void write(dds::Writer<T>& w, const T& sample, std::uint64_t* count);
+
+  const RobotConfig& cfg_;
+  dds::Topic<cairn_RobotStatus> status_topic_;
+  dds::Topic<cairn_OdometryIncrement> odom_topic_;
+  dds::Topic<cairn_LaserScan> laser_topic_;
+  dds::Topic<cairn_FeatureObservations> feat_topic_;
+  dds::Topic<cairn_PoseCorrection> corr_topic_;
+  dds::Topic<cairn_TaskAssignment> task_topic_;
+  dds::Writer<cairn_RobotStatus> status_writer_;
+  dds::Writer<cairn_OdometryIncrement> odom_writer_;
+  dds::Writer<cairn_LaserScan> laser_writer_;
+  dds::Writer<cairn_FeatureObservations> feat_writer_;
+  dds::Reader<cairn_PoseCorrection> corr_reader_;
+  dds::Reader<cairn_TaskAssignment> task_reader_;
+  cairn_RobotStatus status_{};
+  std::unique_ptr<cairn_LaserScan> laser_ = std::make_unique<cairn_LaserScan>();
+  std::unique_ptr<cairn_FeatureObservations> feat_ = std::make_unique<cairn_FeatureObservations>();
+  std::optional<Pose2> local_to_global_;
+  bool ever_ready_ = false;
+  BridgeCounters counters_;
+};
+
+template <typename OnTask>
+bool RobotBridge::poll_inputs(OnTask&& on_task) {
+  bool heard = false;
+  corr_reader_.take([&](const cairn_PoseCorrection& c, const dds_sample_info_t&) {
+    if (c.robot_id != cfg_.id) return;
+    const Pose2 t{c.local_to_global.x, c.local_to_global.y, c.local_to_global.theta};
+    if (std::isfinite(t.x) && std::isfinite(t.y) && std::isfinite(t.theta)) local_to_global_ = t;
+    ++counters_.corrections;
+    heard = true;
+  });
+  task_reader_.take([&](const cairn_TaskAssignment& t, const dds_sample_info_t&) {
+    if (t.robot_id != cfg_.id) return;
+    ++counters_.tasks;
+    heard = true;
+    on_task(t);
+  });
+  return heard;
+}
+
+}  // namespace cairn::firmware
