@@ -84,3 +84,25 @@ TEST(World, ShippedWorldsLoad) {
 
 }  // namespace
 }  // namespace cairn::hil
+
+namespace cairn {
+namespace {
+
+TEST(World, RoutesAddUpPerRobotAndBadOnesNameTheLine) {
+  const hil::World w = hil::World::parse("route 2 1 1 2 2\nroute 1 5 5\nroute 2 3 3\n", "r.world");
+  ASSERT_EQ(w.route(2).size(), 3u);
+  EXPECT_DOUBLE_EQ(w.route(2)[2].x(), 3.0);
+  EXPECT_EQ(w.route(1).size(), 1u);
+  EXPECT_TRUE(w.route(3).empty());
+  for (const char* bad : {"route 1 1\n", "route 0 1 1\n", "route 1\n", "route 1 1 x\n", "route 1.5 1 1\n"}) {
+    try {
+      hil::World::parse(std::string("\n") + bad, "r.world");
+      ADD_FAILURE() << "accepted: " << bad;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("r.world:2:"), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace cairn

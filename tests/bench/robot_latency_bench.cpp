@@ -1,0 +1,172 @@
+// Robot latency and RT jitter on the HIL bench, in one process so every time is on one
+// clock: the LMS2xx emulator records when each scan telegram's last byte left the line;
+// the executive (real drivers, RT loop, local mapper) and the production DDS bridge
+// publish the scan's corrected OdometryIncrement; a second DDS participant (loopback
+// profile) takes it. Reports last byte -> corrected pose on DDS (p50, p99) and the RT
+// loop's period/jitter, first with the second core idle (baseline), then with it
+// loaded by a busy thread, in the same run.
+//   cairn-bench-robot-latency [--seconds 20] [--priority 80]
+#include <pthread.h>
+#include <sched.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <atomic>
+#include <cstdio>
+#include <thread>
+#include <vector>
+
+#include "firmware/executive/path_follower.hpp"
+#include "firmware/robot_bridge.hpp"
+#include "hil/bench/robot_bench.hpp"
+
+using namespace cairn;
+
+namespace {
+
+constexpr int kDomain = 109;
+
+struct Phase {
+  std::vector<double> latency_ms;
+  firmware::RtSnapshot rt;
+  std::uint64_t unmatched = 0;
+};
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
+}
+
+Phase run_phase(const std::string& world_path, double seconds, int priority, bool load) {
+  const hil::World world = hil::World::load(world_path);
+  hil::RobotBenchConfig bc;
+  bc.start = {5.0, 10.0, 0.0};
+  hil::RobotBench bench(world, bc);
+  bench.start();
+  firmware::RobotConfig rc;
+  rc.id = 1;
+  rc.name = "bench";
+  rc.dds = dds::loopback_profile(kDomain);
+  rc.has_devices = true;
+  auto& ec = rc.executive;
+  ec.lms_uri = bench.lms_uri();
+  ec.can_uri = bench.can_uri();
+  ec.power_uri = bench.power_uri();
+  ec.safety.link_timeout = 0;
+  ec.rt_loop = {priority, 0, priority > 0};  // RT loop on CPU 0; the load goes on CPU 1
+  ec.io_threads = {priority > 0 ? priority - 10 : 0, -1, false};
+
+  dds::Participant robot_pp(rc.dds), listener_pp(dds::loopback_profile(kDomain));
+  firmware::RobotBridge bridge(robot_pp, rc);
+  dds::Topic<cairn_OdometryIncrement> topic(listener_pp);
+  dds::Reader<cairn_OdometryIncrement> reader(listener_pp, topic, dds::latched_qos(512));
+  firmware::Executive exec(ec);
+  exec.start();
+
+  std::atomic<bool> running{true};
+  std::vector<std::pair<Nanos, Nanos>> received;  // (t1 of the increment, receive time)
+  std::thread listener([&] {
+    auto& clock = MonotonicClock::instance();
+    while (running) {
+      reader.wait(20 * kNanosPerMilli);
+      reader.take([&](const cairn_OdometryIncrement& m, const dds_sample_info_t&) { received.emplace_back(m.t1_ns, clock.now()); });
+    }
+  });
+  std::thread hog;
+  if (load) {
+    hog = std::thread([&] {
+      cpu_set_t set;
+      CPU_ZERO(&set);
+      CPU_SET(std::thread::hardware_concurrency() > 1 ? 1 : 0, &set);
+      pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+      volatile double x = 1;
+      while (running) x = x * 1.0000001 + 1e-9;
+    });
+  }
+
+  firmware::FollowerConfig fc;
+  fc.speed = 0.8;
+  fc.loop = true;
+  firmware::PathFollower follower({{15, 0}, {0, 0}}, fc);
+  auto& clock = MonotonicClock::instance();
+  const Nanos t0 = clock.now(), end = t0 + seconds_to_nanos(seconds + 3);
+  const Nanos measure_from = t0 + 3 * kNanosPerSecond;  // drivers up, robot moving
+  Nanos next = t0;
+  while (clock.now() < end) {
+    const Nanos now = clock.now();
+    bridge.forward(exec);
+    exec.note_link(now);
+    double v = 0, w = 0;
+    follower.command(exec.rt_snapshot().local_pose, &v, &w);
+    exec.set_velocity(v, w, now);
+    next += rc.bridge_period;
+    clock.sleep_until(next);
+  }
+  Phase out;
+  out.rt = exec.rt_snapshot();
+  exec.stop();
+  running = false;
+  listener.join();
+  if (hog.joinable()) hog.join();
+
+  // Each received increment belongs to the scan whose sweep started at its t1 (the
+  // driver's first-beam estimate); its last byte left at tx_start + bytes on the line.
+  std::vector<hil::SentScan> sent;
+  std::uint32_t baud = 0;
+  bench.lms().with_device([&](hil::LmsDevice& d) {
+    sent.assign(d.sent_scans().begin(), d.sent_scans().end());
+    baud = d.baud();
+    return 0;
+  });
+  bench.stop();
+  for (const auto& [t1, rx] : received) {
+    if (t1 < measure_from) continue;
+    const hil::SentScan* best = nullptr;
+    for (const auto& s : sent) {
+      if (s.tx_start >= 0 && (!best || std::llabs(s.sweep_start - t1) < std::llabs(best->sweep_start - t1))) best = &s;
+    }
+    if (!best || std::llabs(best->sweep_start - t1) > 5 * kNanosPerMilli) {
+      ++out.unmatched;
+      continue;
+    }
+    const Nanos last_byte = best->tx_start + static_cast<Nanos>(static_cast<double>(best->bytes) * 10.0 / baud * 1e9);
+    out.latency_ms.push_back(nanos_to_seconds(rx - last_byte) * 1e3);
+  }
+  std::printf("  %s: %s\n", load ? "loaded" : "idle", exec.rt_reports()[3].c_str());
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"cairn-bench-robot-latency: scan last byte -> corrected pose on DDS, and RT jitter, idle vs loaded core"};
+  double seconds = 20;
+  int priority = 80;
+  std::string world = std::string(CAIRN_SOURCE_DIR_STR) + "/hil/worlds/office.world";
+  app.add_option("--seconds", seconds, "measured seconds per phase")->capture_default_str();
+  app.add_option("--priority", priority, "SCHED_FIFO priority of the RT loop (0 = none; needs CAP_SYS_NICE)")->capture_default_str();
+  app.add_option("--world", world, "world file")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  std::printf("robot latency bench: %.0f s per phase, RT priority %d\n", seconds, priority);
+  const Phase idle = run_phase(world, seconds, priority, false);
+  const Phase loaded = run_phase(world, seconds, priority, true);
+  std::printf("\n%-8s %8s %10s %10s %10s %12s %12s %8s\n", "phase", "scans", "lat p50 ms", "lat p99 ms", "lat max ms",
+              "period p99us", "jitter maxus", "misses");
+  for (const auto* p : {&idle, &loaded}) {
+    std::printf("%-8s %8zu %10.2f %10.2f %10.2f %12.0f %12.0f %8llu\n", p == &idle ? "idle" : "loaded", p->latency_ms.size(),
+                percentile(p->latency_ms, 0.5), percentile(p->latency_ms, 0.99), percentile(p->latency_ms, 1.0),
+                static_cast<double>(p->rt.period_p99_us), static_cast<double>(p->rt.jitter_max_us),
+                static_cast<unsigned long long>(p->rt.misses));
+  }
+  std::printf("ratio loaded/idle: latency p99 %.2f, jitter max %.2f\n",
+              percentile(loaded.latency_ms, 0.99) / std::max(1e-9, percentile(idle.latency_ms, 0.99)),
+              static_cast<double>(loaded.rt.jitter_max_us) / std::max(1.0, static_cast<double>(idle.rt.jitter_max_us)));
+  if (idle.latency_ms.size() < 10 || loaded.latency_ms.size() < 10) {
+    std::fprintf(stderr, "too few scans matched (%zu, %zu; unmatched %llu, %llu)\n", idle.latency_ms.size(),
+                 loaded.latency_ms.size(), static_cast<unsigned long long>(idle.unmatched),
+                 static_cast<unsigned long long>(loaded.unmatched));
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,87 @@
+// The robot configuration's schema (clear errors naming the key) and the navigator's
+// handling of tasks from the base station.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "common/config.hpp"
+#include "firmware/navigator.hpp"
+#include "firmware/robot_config.hpp"
+
+namespace cairn {
+namespace {
+
+const std::string kDevices = "[robot]\nid = 4\n[devices]\nlms = \"tty:/dev/pts/9\"\ncan = \"ucan:/tmp/x\"\npower = \"tcp:127.0.0.1:5020\"\n";
+
+std::string error_of(const std::string& text) {
+  try {
+    firmware::parse_robot_config(text, "robot.toml");
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(RobotConfig, StatusOnlyAndFullRobot) {
+  const auto bare = firmware::parse_robot_config("[robot]\nid = 3\n", "robot.toml");
+  EXPECT_FALSE(bare.has_devices);
+  const auto full = firmware::parse_robot_config(
+      kDevices + "[rt]\nperiod_s = 0.005\n[motion]\nwaypoints = [1, 0, 2, 1.5]\nspeed = 0.4\n[safety]\nlink_timeout_s = 0\n",
+      "robot.toml");
+  EXPECT_TRUE(full.has_devices);
+  EXPECT_EQ(full.executive.robot_id, 4);
+  EXPECT_EQ(full.executive.lms_uri, "tty:/dev/pts/9");
+  EXPECT_EQ(full.executive.period, 5 * kNanosPerMilli);
+  EXPECT_EQ(full.executive.master.sync_period, 5 * kNanosPerMilli);
+  ASSERT_EQ(full.motion.waypoints.size(), 2u);
+  EXPECT_DOUBLE_EQ(full.motion.waypoints[1].y(), 1.5);
+  EXPECT_EQ(full.executive.safety.link_timeout, 0);
+}
+
+TEST(RobotConfig, ErrorsNameTheKey) {
+  EXPECT_NE(error_of("[robot]\nid = 1\n[devices]\nlms = \"x\"\n").find("devices.can"), std::string::npos);
+  EXPECT_NE(error_of(kDevices + "lms_baud = 115200\n").find("lms_baud"), std::string::npos);
+  EXPECT_NE(error_of(kDevices + "drive_nodes = [3, 3]\n").find("different node ids"), std::string::npos);
+  EXPECT_NE(error_of(kDevices + "lms_resolution_deg = 0.25\n").find("lms_angle_deg = 100"), std::string::npos);
+  EXPECT_NE(error_of(kDevices + "[motion]\nwaypoints = [1, 2, 3]\n").find("odd count"), std::string::npos);
+  EXPECT_NE(error_of(kDevices + "[rt]\nperiod_s = 0.5\n").find("rt.period_s"), std::string::npos);
+  EXPECT_NE(error_of(kDevices + "[saftey]\nmax_v = 1\n").find("did you mean 'safety'"), std::string::npos);
+}
+
+cairn_TaskAssignment goto_task(std::uint32_t id, double x, double y) {
+  cairn_TaskAssignment t{};
+  t.robot_id = 1;
+  t.task_id = id;
+  t.kind = cairn_TASK_GOTO;
+  t.target_x = x;
+  t.target_y = y;
+  return t;
+}
+
+TEST(Navigator, GotoIsFollowedInTheLocalFrameThroughTheCorrection) {
+  firmware::MotionConfig m;
+  firmware::Navigator nav(m);
+  double v = 1, w = 1;
+  nav.command({}, &v, &w);
+  EXPECT_EQ(v, 0.0);  // no route, no task: stand still
+  EXPECT_NE(nav.on_task(goto_task(7, 10, 5), std::nullopt).find("no PoseCorrection"), std::string::npos);
+  EXPECT_FALSE(nav.active());
+  // Local frame = global rotated by 90° and shifted to (10, 3): the global target (10, 5)
+  // lies 2 m straight ahead of the local origin.
+  const Pose2 local_to_global{10, 3, M_PI / 2};
+  EXPECT_EQ(nav.on_task(goto_task(8, 10, 5), local_to_global), "");
+  EXPECT_TRUE(nav.active());
+  nav.command({}, &v, &w);
+  EXPECT_GT(v, 0.0);
+  EXPECT_NEAR(w, 0.0, 1e-6);
+  auto nan_task = goto_task(9, std::nan(""), 0);
+  EXPECT_NE(nav.on_task(nan_task, local_to_global).find("non-finite"), std::string::npos);
+  cairn_TaskAssignment stop{};
+  stop.task_id = 10;
+  stop.kind = cairn_TASK_STOP;
+  EXPECT_EQ(nav.on_task(stop, local_to_global), "");
+  EXPECT_FALSE(nav.active());
+}
+
+}  // namespace
+}  // namespace cairn

@@ -1,0 +1,164 @@
+// One robot end to end as separate processes, as a user runs them: `cairn-hil robots`
+// serves the robot's LMS2xx, CiA 402 drives and power board and writes its
+// configuration; the production `cairn-robot` drives route 1 of the office world
+// through them; `cairn-base` fuses its topics. The test listens on DDS (loopback
+// profile, its own domain) and checks: the route is completed, the robot's local pose
+// drifts <= 1 % of the distance (vs the bench's ground truth), each device fault
+// (e-stop, laser unplugged, drive silent) is published as a stop with its reason and
+// recovered from, odometry and features arrive in order, and the base's global pose
+// estimate lies near the truth.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "common/dds/participant.hpp"
+#include "common/dds/topics.hpp"
+#include "hil/world/world.hpp"
+#include "tests/support/subprocess.hpp"
+
+namespace cairn {
+namespace {
+
+using namespace std::chrono_literals;
+using testing::Subprocess;
+
+constexpr int kDomain = 107;
+
+std::filesystem::path scratch() {
+  const auto dir = std::filesystem::temp_directory_path() / ("cairn-robot-process-test-" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+void write_file(const std::filesystem::path& p, const std::string& text) { std::ofstream(p) << text; }
+
+std::string read_file(const std::string& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(RobotProcess, DrivesItsRouteThroughTheRealDriversWithFaultsAndTheBaseFollows) {
+  const std::string src = CAIRN_SOURCE_DIR_STR;
+  const std::string world_path = src + "/hil/worlds/office.world";
+  const hil::World world = hil::World::load(world_path);
+  const Pose2 start = *world.start(1);
+  const Vec2 goal_local = inverse_transform_point(start, world.route(1).back());
+
+  const auto dir = scratch();
+  const std::string dds = "[dds]\nprofile = \"loopback\"\ndomain = " + std::to_string(kDomain) + "\n";
+  std::string tmpl = read_file(src + "/config/robot-hil.toml");
+  tmpl.replace(tmpl.find("[dds]\nprofile = \"loopback\"\n"), std::string("[dds]\nprofile = \"loopback\"\n").size(), dds);
+  write_file(dir / "robot-template.toml", tmpl);
+  char base_cfg[1024];
+  std::snprintf(base_cfg, sizeof base_cfg,
+                "%s[fleet]\ntable_period_s = 5.0\n[fusion]\nstate_dir = \"%s\"\n[[robot]]\nid = 1\ninitial_pose = [%g, %g, %g]\n",
+                dds.c_str(), (dir / "base-state").c_str(), start.x, start.y, start.theta);
+  write_file(dir / "base.toml", base_cfg);
+
+  // Faults while driving: e-stop at 15 s, laser unplugged at 25 s, right drive silent at 35 s; 2 s each.
+  Subprocess hil({CAIRN_HIL_BIN, "robots", "--world", world_path, "--count", "1", "--template",
+                  (dir / "robot-template.toml").string(), "--out", (dir / "robots").string(), "--truth",
+                  (dir / "truth.txt").string(), "--report", "2", "--fault", "15:1:estop:2", "--fault", "25:1:laser:2",
+                  "--fault", "35:1:drive:2", "--duration", "240"});
+  ASSERT_TRUE(hil.wait_for_line("cairn-hil: ready", 10s)) << hil.output();
+  Subprocess base({CAIRN_BASE_BIN, "--config", (dir / "base.toml").string(), "--duration", "240"});
+  ASSERT_TRUE(base.wait_for_line("starting; DDS profile loopback", 10s)) << base.output();
+
+  dds::Participant pp(dds::loopback_profile(kDomain));
+  dds::Topic<cairn_RobotStatus> st(pp);
+  dds::Topic<cairn_OdometryIncrement> ot(pp);
+  dds::Topic<cairn_FeatureObservations> ft(pp);
+  dds::Topic<cairn_PoseCorrection> ct(pp);
+  dds::Reader<cairn_RobotStatus> status(pp, st, dds::state_qos(8));
+  dds::Reader<cairn_OdometryIncrement> odometry(pp, ot, dds::latched_qos(512));
+  dds::Reader<cairn_FeatureObservations> features(pp, ft, dds::latched_qos(512));
+  dds::Reader<cairn_PoseCorrection> corrections(pp, ct, dds::latched_qos());
+
+  Subprocess robot({CAIRN_ROBOT_BIN, "--config", (dir / "robots" / "robot-1.toml").string(), "--duration", "240"});
+  std::set<int> reasons;
+  std::uint32_t last_odom = 0, last_feat = 0, odom_count = 0, feat_count = 0, out_of_order = 0;
+  cairn_RobotStatus last{};
+  cairn_PoseCorrection corr{};
+  bool have_corr = false;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto at_goal_since = t0;
+  bool at_goal = false;
+  while (std::chrono::steady_clock::now() - t0 < 200s) {
+    status.wait(50 * kNanosPerMilli);
+    status.take([&](const cairn_RobotStatus& s, const dds_sample_info_t&) {
+      last = s;
+      reasons.insert(s.stop_reason);
+    });
+    odometry.take([&](const cairn_OdometryIncrement& m, const dds_sample_info_t&) {
+      if (m.seq != last_odom + 1) ++out_of_order;
+      last_odom = m.seq;
+      ++odom_count;
+    });
+    features.take([&](const cairn_FeatureObservations& m, const dds_sample_info_t&) {
+      if (m.seq <= last_feat) ++out_of_order;
+      last_feat = m.seq;
+      ++feat_count;
+    });
+    corrections.take([&](const cairn_PoseCorrection& c, const dds_sample_info_t&) {
+      corr = c;
+      have_corr = true;
+    });
+    const bool near = std::hypot(last.local_pose.x - goal_local.x(), last.local_pose.y - goal_local.y()) < 0.3;
+    if (near && !at_goal) at_goal_since = std::chrono::steady_clock::now();
+    at_goal = near;
+    if (at_goal && std::chrono::steady_clock::now() - at_goal_since > 3s) break;
+  }
+  ASSERT_TRUE(at_goal) << "route not completed: last local pose " << last.local_pose.x << " " << last.local_pose.y
+                       << ", goal " << goal_local.transpose() << "\n" << robot.output() << "\n" << hil.output();
+  const Pose2 local{last.local_pose.x, last.local_pose.y, last.local_pose.theta};
+  robot.signal(SIGINT);
+  EXPECT_EQ(robot.wait(10s), 0) << robot.output();
+  hil.signal(SIGINT);
+  EXPECT_EQ(hil.wait(10s), 0);
+  base.signal(SIGINT);
+  EXPECT_EQ(base.wait(10s), 0);
+
+  const auto final_line = hil.wait_for_line("final robot 1 at", 1s);
+  ASSERT_TRUE(final_line) << hil.output();
+  Pose2 truth;
+  double travelled = 0;
+  ASSERT_EQ(std::sscanf(final_line->c_str() + final_line->find("at ") + 3, "%lf %lf %lf rad, travelled %lf", &truth.x,
+                        &truth.y, &truth.theta, &travelled),
+            4)
+      << *final_line;
+  const Pose2 truth_local = between(start, truth);
+  const double drift = std::hypot(local.x - truth_local.x, local.y - truth_local.y);
+  std::printf("travelled %.1f m; local pose error %.3f m = %.2f %%; odometry %u, features %u messages; stop reasons seen:",
+              travelled, drift, 100 * drift / travelled, odom_count, feat_count);
+  for (int r : reasons) std::printf(" %d", r);
+  std::printf("\n");
+  EXPECT_GT(travelled, 40.0);
+  EXPECT_LT(drift, 0.01 * travelled);
+  EXPECT_EQ(out_of_order, 0u);
+  EXPECT_GT(odom_count, 1000u);
+  EXPECT_GT(feat_count, 500u);
+  EXPECT_TRUE(reasons.count(1)) << "e-stop never published as a stop";
+  EXPECT_TRUE(reasons.count(4)) << "laser loss never published as a stop";
+  EXPECT_TRUE(reasons.count(2)) << "drive loss never published as a stop";
+  EXPECT_EQ(last.stop_reason, 0) << "not recovered: " << last.stop_text;
+  EXPECT_EQ(last.deadline_misses, 0u);
+  EXPECT_EQ(last.n_devices, 4);
+
+  ASSERT_TRUE(have_corr) << "no PoseCorrection from the base\n" << base.output();
+  const double global_err = std::hypot(corr.global_pose.x - truth.x, corr.global_pose.y - truth.y);
+  std::printf("base station's global pose error at the end: %.3f m\n", global_err);
+  EXPECT_LT(global_err, 0.5);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace cairn
