@@ -16,6 +16,11 @@ function(cairn_add_test)
     set(T_TIMEOUT 120)
   endif()
   add_test(NAME ${T_NAME} COMMAND ${T_NAME})
+  if(CMAKE_CROSSCOMPILING)
+    # Run under qemu-user (the toolchain's CROSSCOMPILING_EMULATOR); a failure names the target.
+    list(APPEND T_LABELS cross ${CMAKE_SYSTEM_PROCESSOR})
+    math(EXPR T_TIMEOUT "${T_TIMEOUT} * 4")
+  endif()
   set_tests_properties(${T_NAME} PROPERTIES
     LABELS "${T_LABELS}"
     TIMEOUT ${T_TIMEOUT}

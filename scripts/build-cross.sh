@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Cross-builds the robot side (common, drivers, firmware, cairn-robot, the probe tools and
+# their tests) for a robot computer, with warnings as errors, and with --test runs the
+# target's unit tests under qemu-user (CTest label `cross`).
+#   scripts/build-cross.sh aarch64 [--test]     64-bit Arm -> build/aarch64
+#   scripts/build-cross.sh armhf [--test]       32-bit Arm -> build/armhf
+set -euo pipefail
+cd "$(dirname "$0")/.."
+target=${1:-}
+case "$target" in
+  aarch64|armhf) ;;
+  -h|--help|"") sed -n '2,6p' "$0"; [[ -n "$target" ]]; exit $? ;;
+  *) echo "build-cross: unknown target '$target' (aarch64 or armhf)" >&2; exit 2 ;;
+esac
+shift
+run_tests=0
+for arg in "$@"; do
+  case "$arg" in
+    --test) run_tests=1 ;;
+    *) echo "build-cross: unknown option '$arg'" >&2; exit 2 ;;
+  esac
+done
+scripts/setup-cross.sh "$target"
+cmake --preset "$target" >/dev/null
+cmake --build --preset "$target"
+echo "build-cross: $target binaries in build/$target (file build/$target/firmware/cairn-robot: $(file -b build/$target/firmware/cairn-robot | cut -d, -f1-2))"
+if ((run_tests)); then
+  echo "build-cross: running the $target tests under qemu-user..."
+  if ! ctest --preset "$target" -j2 -L cross; then
+    echo "build-cross: TESTS FAILED ON TARGET $target (under qemu-user; see above)" >&2
+    exit 1
+  fi
+fi

@@ -1,0 +1,18 @@
+# Shared by the toolchain files: a Debian cross compiler and the target's libraries from
+# Debian multiarch (/usr/lib/<triple>, /usr/include/<triple>), installed by
+# scripts/setup-cross.sh. Host programs (idlc) are found on the host; target libraries
+# and pkg-config files only for the target. CTest runs the target's test binaries
+# through qemu-user with the multiarch loader.
+set(CMAKE_SYSTEM_NAME Linux)
+set(CMAKE_C_COMPILER ${CAIRN_TRIPLE}-gcc)
+set(CMAKE_CXX_COMPILER ${CAIRN_TRIPLE}-g++)
+set(CMAKE_LIBRARY_ARCHITECTURE ${CAIRN_TRIPLE})
+set(CMAKE_FIND_ROOT_PATH /usr/${CAIRN_TRIPLE})
+set(CMAKE_FIND_ROOT_PATH_MODE_PROGRAM NEVER)
+# Multiarch libraries live in /usr/lib/<triple>, outside the root path: search both.
+set(CMAKE_FIND_ROOT_PATH_MODE_LIBRARY BOTH)
+set(CMAKE_FIND_ROOT_PATH_MODE_INCLUDE BOTH)
+set(CMAKE_FIND_ROOT_PATH_MODE_PACKAGE BOTH)
+set(ENV{PKG_CONFIG_LIBDIR} "/usr/lib/${CAIRN_TRIPLE}/pkgconfig:/usr/share/pkgconfig")
+set(ENV{PKG_CONFIG_PATH} "")
+set(CMAKE_CROSSCOMPILING_EMULATOR ${CAIRN_QEMU};-L;/usr/${CAIRN_TRIPLE})
