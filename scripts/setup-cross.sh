@@ -27,12 +27,10 @@ SUDO=()
 if [[ $(id -u) -ne 0 ]]; then SUDO=(sudo); fi
 
 wanted=(qemu-user)
-need_update=0
 for arch in "${targets[@]}"; do
   if ! dpkg --print-foreign-architectures | grep -qx "$arch"; then
     echo "setup-cross: dpkg --add-architecture $arch"
     "${SUDO[@]}" dpkg --add-architecture "$arch"
-    need_update=1
   fi
   case "$arch" in
     arm64) wanted+=(g++-aarch64-linux-gnu) ;;
@@ -53,6 +51,6 @@ if ((${#missing[@]} == 0)); then
   exit 0
 fi
 echo "setup-cross: installing ${#missing[@]} package(s): ${missing[*]}"
-if ((need_update)) || true; then "${SUDO[@]}" apt-get update -q; fi
+"${SUDO[@]}" apt-get update -q   # always: a new architecture's package lists are not there yet
 DEBIAN_FRONTEND=noninteractive "${SUDO[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
 echo "setup-cross: done"
