@@ -20,6 +20,7 @@ function(cairn_add_test)
     # Run under qemu-user (the toolchain's CROSSCOMPILING_EMULATOR); a failure names the target.
     list(APPEND T_LABELS cross ${CMAKE_SYSTEM_PROCESSOR})
     math(EXPR T_TIMEOUT "${T_TIMEOUT} * 4")
+    target_compile_definitions(${T_NAME} PRIVATE CAIRN_EMULATED=1)  # timing bounds scale (timing.hpp)
   endif()
   set_tests_properties(${T_NAME} PROPERTIES
     LABELS "${T_LABELS}"

@@ -38,6 +38,8 @@ for arch in "${targets[@]}"; do
   esac
   # The robot side's libraries for the target (Eigen, CLI11, json are header-only and
   # architecture-independent; idlc runs on the host).
+  # libc6/libstdc++6 of the target: the loader and runtime qemu-user runs the tests with.
+  wanted+=("libc6:$arch" "libstdc++6:$arch")
   wanted+=("cyclonedds-dev:$arch" "libmodbus-dev:$arch" "libserialport-dev:$arch" "libtomlplusplus-dev:$arch"
            "libgtest-dev:$arch" "libgmock-dev:$arch" "zlib1g-dev:$arch")
 done

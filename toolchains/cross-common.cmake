@@ -15,4 +15,8 @@ set(CMAKE_FIND_ROOT_PATH_MODE_INCLUDE BOTH)
 set(CMAKE_FIND_ROOT_PATH_MODE_PACKAGE BOTH)
 set(ENV{PKG_CONFIG_LIBDIR} "/usr/lib/${CAIRN_TRIPLE}/pkgconfig:/usr/share/pkgconfig")
 set(ENV{PKG_CONFIG_PATH} "")
-set(CMAKE_CROSSCOMPILING_EMULATOR ${CAIRN_QEMU};-L;/usr/${CAIRN_TRIPLE})
+# The loader must be the multiarch one (libc6:<arch>, /lib/ld-linux-*.so), matching the
+# multiarch libc.so.6 it then finds. `-L /usr/<triple>` would pair the cross toolchain's
+# older ld.so with the newer multiarch libc: their private ABI differs, and pthread_create
+# spins forever walking a misread stack-cache list.
+set(CMAKE_CROSSCOMPILING_EMULATOR ${CAIRN_QEMU};-L;/)

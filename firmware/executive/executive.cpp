@@ -106,7 +106,9 @@ void Executive::lms_thread() {
   std::unique_ptr<serial::ByteStream> stream;
   // Open (and keep trying) before steady state: opening may allocate.
   while (running_.load() && !stream) {
-    stream = serial::open_stream(cfg_.lms_uri, 9600, &err);
+    // At the configured rate: a fixed-rate link (tcp: to a device server) stays there; on a
+    // serial port the driver probes this rate first, then the others.
+    stream = serial::open_stream(cfg_.lms_uri, cfg_.lms.target_baud, &err);
     if (!stream) {
       CAIRN_LOG_WARN("lms", "cannot open {}: {}; retrying", cfg_.lms_uri.c_str(), err.c_str());
       clock.sleep_until(clock.now() + cfg_.lms.reopen_backoff);

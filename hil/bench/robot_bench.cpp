@@ -24,7 +24,9 @@ RobotBench::RobotBench(const World& world, const RobotBenchConfig& cfg)
   robot_ = std::make_unique<DiffRobot>(cfg.robot_id, cfg.geometry, cfg.start, 0.3, &physics_world_);
   robot_->set_wheel_scale(cfg.wheel_scale_left, cfg.wheel_scale_right);
   truth_.pose = cfg.start;
-  lms_ = std::make_unique<LmsServer>(cfg.lms_tcp ? LmsServer::Link::kTcp : LmsServer::Link::kPty, cfg.lms, &sensor_world_,
+  LmsDeviceConfig lms = cfg.lms;
+  if (cfg.lms_tcp) lms.power_on_baud = cfg.lms_tcp_baud;
+  lms_ = std::make_unique<LmsServer>(cfg.lms_tcp ? LmsServer::Link::kTcp : LmsServer::Link::kPty, lms, &sensor_world_,
                                      [this](Nanos) {
                                        std::lock_guard l(mutex_);
                                        return compose(truth_.pose, cfg_.laser_mount);

@@ -30,6 +30,8 @@ struct RobotBenchConfig {
   canopen::DiffDriveGeometry geometry;
   LmsDeviceConfig lms;
   bool lms_tcp = false;                       // serve the laser on TCP instead of a pty
+  std::uint32_t lms_tcp_baud = 500000;        // TCP: the device server's fixed line rate, which
+                                              // the laser is permanently set to
   std::uint8_t left_node = 1, right_node = 2;
 };
 

@@ -14,7 +14,7 @@ void LmsDevice::power_on(Nanos now) {
   popped_ += tx_.size();  // discarded, but keep byte indices consistent
   tx_.clear();
   parser_.reset();
-  baud_ = 9600;
+  baud_ = cfg_.power_on_baud;
   pending_baud_ = 0;
   booted_ = false;
   boot_done_ = now + seconds_to_nanos(cfg_.boot_time_s);

@@ -32,6 +32,9 @@ struct LmsDeviceConfig {
   double max_range_m = 30.0;
   std::uint64_t seed = 1;
   std::string password = "SICK_LMS";
+  // The rate the device wakes at: 9600 from the factory; a device whose baud rate was set
+  // permanently (as behind a serial device server at a fixed rate) wakes at that rate.
+  std::uint32_t power_on_baud = 9600;
 };
 
 /// What the device knows about the scan it sends (for tests: ground truth per scan).

@@ -3,11 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <string>
 #include <thread>
 
 #include "drivers/sick/lms_driver.hpp"
 #include "hil/lms2xx/lms_server.hpp"
 #include "tests/support/alloc_counter.hpp"
+#include "tests/support/pty_baud.hpp"
 
 namespace cairn {
 namespace {
@@ -21,13 +25,23 @@ TEST(LmsAllocations, NoneWhileStreaming) {
   const hil::World world = hil::World::parse("box 0 0 20 20\npole 9 6 0.05\n", "t");
   hil::LmsDeviceConfig cfg;
   cfg.boot_time_s = 0.1;
-  hil::LmsServer server(hil::LmsServer::Link::kPty, cfg, &world, [](Nanos) { return Pose2{8, 8, 0}; });
+  // Over a pty where it carries 500 kBd; otherwise (qemu-user) over TCP at a fixed 500 kBd.
+  std::string why;
+  const bool pty = testing::pty_carries_500k(&why);
+  hil::LmsServer server(pty ? hil::LmsServer::Link::kPty : hil::LmsServer::Link::kTcp, cfg, &world,
+                        [](Nanos) { return Pose2{8, 8, 0}; });
   server.start();
+  if (!pty) {
+    std::printf("over TCP: %s\n", why.c_str());
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    server.force_baud(500000);
+  }
   std::string err;
-  auto stream = serial::open_stream(server.uri(), 9600, &err);
+  auto stream = serial::open_stream(server.uri(), pty ? 9600 : 500000, &err);
   ASSERT_TRUE(stream) << err;
   CountingSink sink;
   lms::LmsDriverConfig dc;
+  dc.target_baud = 500000;
   dc.resolution_centideg = 100;  // 1°: 75 scans/s
   lms::LmsDriver driver(stream.get(), &MonotonicClock::instance(), dc, &sink);
   std::uint64_t allocations = 0, scans_counted = 0;

@@ -14,6 +14,7 @@
 #include "firmware/executive/executive.hpp"
 #include "firmware/executive/path_follower.hpp"
 #include "hil/bench/robot_bench.hpp"
+#include "tests/support/pty_baud.hpp"
 #include "tests/support/timing.hpp"
 #ifndef CAIRN_SANITIZED
 #include "tests/support/alloc_counter.hpp"
@@ -38,6 +39,16 @@ void on_finished([[maybe_unused]] const char* name) {
 #endif
 }
 
+// The laser on a pty where it carries 500 kBd, else (under qemu-user) on TCP.
+hil::RobotBenchConfig laser_link(hil::RobotBenchConfig bc) {
+  std::string why;
+  if (!testing::pty_carries_500k(&why)) {
+    std::printf("laser over TCP: %s\n", why.c_str());
+    bc.lms_tcp = true;
+  }
+  return bc;
+}
+
 struct Harness {
   hil::World world = hil::World::load(std::string(CAIRN_SOURCE_DIR_STR) + "/hil/worlds/office.world");
   hil::RobotBench bench;
@@ -48,7 +59,7 @@ struct Harness {
   std::uint64_t out_of_order = 0, odometry = 0, lasers = 0, landmark_obs = 0, landmark_near_pole = 0;
   Pose2 start;
 
-  explicit Harness(const hil::RobotBenchConfig& bc = {}) : bench(world, bc), start(bc.start) {
+  explicit Harness(const hil::RobotBenchConfig& bc = {}) : bench(world, laser_link(bc)), start(bc.start) {
     bench.start();
     cfg.lms_uri = bench.lms_uri();
     cfg.can_uri = bench.can_uri();
