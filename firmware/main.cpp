@@ -10,6 +10,7 @@
 #include "firmware/navigator.hpp"
 #include "firmware/robot_bridge.hpp"
 #include "firmware/robot_config.hpp"
+#include "firmware/service_notify.hpp"
 
 using namespace cairn;
 
@@ -70,6 +71,13 @@ int run(const std::string& config_path, int id_override, const std::string& name
     exec->start();
   }
   firmware::Navigator nav(cfg.motion);
+  firmware::ServiceNotifier service;
+  std::uint64_t status_loops = 0;
+  service.ready(describe(cfg));
+  if (service.watchdog_enabled()) {
+    CAIRN_LOG_INFO("robot", "systemd watchdog every {:.1f} s, fed while the RT loop cycles",
+                   nanos_to_seconds(service.watchdog_interval()));
+  }
 
   auto& clock = MonotonicClock::instance();
   const Nanos start = clock.now();
@@ -88,11 +96,13 @@ int run(const std::string& config_path, int id_override, const std::string& name
       double v = 0, w = 0;
       nav.command(exec->rt_snapshot().local_pose, &v, &w);
       exec->set_velocity(v, w, now);
+      service.alive(exec->rt_snapshot().cycles, now);
       if (now >= next_progress) {
         next_progress += 10 * kNanosPerSecond;
         log_progress(cfg, *exec, bridge);
       }
     }
+    if (!exec) service.alive(++status_loops, now);  // status-only: no RT loop to watch
     if (now >= next_status) {
       next_status += cfg.status_period;
       bridge.publish_status(exec.get(), now);
@@ -101,6 +111,7 @@ int run(const std::string& config_path, int id_override, const std::string& name
     if (next < now) next = now;  // fell behind (a debugger, a stall): do not burst
     clock.sleep_until(next);
   }
+  service.stopping();
   if (exec) {
     exec->stop();
     bridge.forward(*exec);

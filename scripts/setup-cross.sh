@@ -40,7 +40,7 @@ for arch in "${targets[@]}"; do
   # architecture-independent; idlc runs on the host).
   # libc6/libstdc++6 of the target: the loader and runtime qemu-user runs the tests with.
   wanted+=("libc6:$arch" "libstdc++6:$arch")
-  wanted+=("cyclonedds-dev:$arch" "libmodbus-dev:$arch" "libserialport-dev:$arch" "libtomlplusplus-dev:$arch"
+  wanted+=("cyclonedds-dev:$arch" "libmodbus-dev:$arch" "libserialport-dev:$arch" "libtomlplusplus-dev:$arch" "libsystemd-dev:$arch"
            "libgtest-dev:$arch" "libgmock-dev:$arch" "zlib1g-dev:$arch")
 done
 
@@ -53,6 +53,13 @@ if ((${#missing[@]} == 0)); then
   exit 0
 fi
 echo "setup-cross: installing ${#missing[@]} package(s): ${missing[*]}"
-"${SUDO[@]}" apt-get update -q   # always: a new architecture's package lists are not there yet
+# A mirror mid-sync fails an index now and then ("File has unexpected size"): retry.
+for try in 1 2 3; do
+  # always: a new architecture's package lists are not there yet
+  "${SUDO[@]}" apt-get update -q && break
+  # Still failing: install from the lists that did download; a missing package fails below.
+  ((try < 3)) || { echo "setup: apt-get update failed 3 times; installing from the lists it has" >&2; break; }
+  echo "setup: apt-get update failed; retrying in 15 s" >&2; sleep 15
+done
 DEBIAN_FRONTEND=noninteractive "${SUDO[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
 echo "setup-cross: done"

@@ -15,6 +15,7 @@ core=(
   libmodbus-dev libserialport-dev
   libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libpng-dev zlib1g-dev libboost-dev gnuplot-nox
   googletest libgtest-dev libgmock-dev libbenchmark-dev
+  libsystemd-dev dpkg-dev openssh-client openssh-server
 )
 extra=()
 for arg in "$@"; do
@@ -42,6 +43,12 @@ if [[ $(id -u) -ne 0 ]]; then
   SUDO=(sudo)
 fi
 echo "setup-deps: installing ${#missing[@]} package(s): ${missing[*]}"
-"${SUDO[@]}" apt-get update -q
+# A mirror mid-sync fails an index now and then ("File has unexpected size"): retry.
+for try in 1 2 3; do
+  "${SUDO[@]}" apt-get update -q && break
+  # Still failing: install from the lists that did download; a missing package fails below.
+  ((try < 3)) || { echo "setup: apt-get update failed 3 times; installing from the lists it has" >&2; break; }
+  echo "setup: apt-get update failed; retrying in 15 s" >&2; sleep 15
+done
 DEBIAN_FRONTEND=noninteractive "${SUDO[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
 echo "setup-deps: done"

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds with warnings as errors, and runs the whole
-# test suite; then builds with ASan+UBSan and with TSan and runs the tests again.
-#   scripts/test.sh [--quick]   (--quick: skip the sanitizer passes)
+# test suite; then builds with ASan+UBSan and with TSan and runs the tests again;
+# then cross-builds the robot side for aarch64 and runs its tests under qemu-user.
+#   scripts/test.sh [--quick]   (--quick: skip the sanitizer, fuzz and cross passes)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 quick=0
@@ -21,12 +22,14 @@ if ((quick == 0)); then
   scripts/build.sh asan
   echo "== test: unit and integration tests under ASan + UBSan"
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-    ctest --preset asan -j2 -LE 'bench|slow'
+    ctest --preset asan -j2 -LE 'bench|slow|packaging'
   echo "== test: build (tsan preset: ThreadSanitizer, -Werror)"
   scripts/build.sh tsan
   echo "== test: unit and integration tests under TSan"
-  TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1" ctest --preset tsan -j2 -LE 'bench|slow'
+  TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1" ctest --preset tsan -j2 -LE 'bench|slow|packaging'
   echo "== test: fuzz targets (clang libFuzzer + ASan/UBSan), 30 s each"
   scripts/fuzz.sh 30
+  echo "== test: cross-build the robot side for aarch64 (-Werror); its tests and package under qemu-user"
+  scripts/build-cross.sh aarch64 --test
 fi
 echo "== test: all passed in $(( $(date +%s) - start )) s"
