@@ -1,5 +1,7 @@
 #include "common/log.hpp"
 
+#include <cstdint>
+
 #include <chrono>
 #include <cinttypes>
 
@@ -129,7 +131,10 @@ LogRecord* Logger::claim() {
 }
 
 void Logger::commit(LogRecord* r) {
-  Cell* cell = reinterpret_cast<Cell*>(reinterpret_cast<char*>(r) - offsetof(Cell, record));
+  // The record is a member of one of cells_: find that cell by its index (no pointer cast,
+  // which 32-bit Arm flags as raising the required alignment).
+  const auto offset = reinterpret_cast<std::uintptr_t>(r) - reinterpret_cast<std::uintptr_t>(&cells_[0].record);
+  Cell* cell = &cells_[offset / sizeof(Cell)];
   // While claimed, the cell's sequence still equals the claiming position; pos + 1 hands it to the consumer.
   const std::size_t pos = cell->sequence.load(std::memory_order_relaxed);
   cell->sequence.store(pos + 1, std::memory_order_release);
