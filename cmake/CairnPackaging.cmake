@@ -22,7 +22,10 @@ install(FILES docs/firmware.md docs/config.md docs/lms2xx.md docs/canopen.md doc
 set(CPACK_COMPONENTS_ALL robot)
 
 if(CAIRN_HOST_ONLY_PARTS)
-  install(TARGETS cairn-base cairn-eval RUNTIME DESTINATION bin COMPONENT base)
+  install(TARGETS cairn-base RUNTIME DESTINATION bin COMPONENT base)
+  if(TARGET cairn-eval)  # built with the tests (tests/eval)
+    install(TARGETS cairn-eval RUNTIME DESTINATION bin COMPONENT base)
+  endif()
   install(FILES config/base.toml DESTINATION /etc/cairn COMPONENT base)
   install(FILES ${cairn_pkg}/base/cairn-base.service DESTINATION /lib/systemd/system COMPONENT base)
   install(FILES docs/ccml.md docs/config.md docs/dds.md DESTINATION share/doc/cairn-base COMPONENT base)
