@@ -23,12 +23,12 @@ done
 ((${#targets[@]})) || { echo "setup-cross: name a target: aarch64, armhf or all" >&2; exit 2; }
 
 scripts/setup-deps.sh
-SUDO=()
-if [[ $(id -u) -ne 0 ]]; then SUDO=(sudo); fi
+source "$(dirname "$0")/lib/apt.sh"
 
 wanted=(qemu-user)
 for arch in "${targets[@]}"; do
   if ! dpkg --print-foreign-architectures | grep -qx "$arch"; then
+    need_root setup-cross
     echo "setup-cross: dpkg --add-architecture $arch"
     "${SUDO[@]}" dpkg --add-architecture "$arch"
   fi
@@ -44,22 +44,4 @@ for arch in "${targets[@]}"; do
            "libgtest-dev:$arch" "libgmock-dev:$arch" "zlib1g-dev:$arch")
 done
 
-missing=()
-for p in "${wanted[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if ((${#missing[@]} == 0)); then
-  echo "setup-cross: all ${#wanted[@]} packages already installed"
-  exit 0
-fi
-echo "setup-cross: installing ${#missing[@]} package(s): ${missing[*]}"
-# A mirror mid-sync fails an index now and then ("File has unexpected size"): retry.
-for try in 1 2 3; do
-  # always: a new architecture's package lists are not there yet
-  "${SUDO[@]}" apt-get update -q && break
-  # Still failing: install from the lists that did download; a missing package fails below.
-  ((try < 3)) || { echo "setup: apt-get update failed 3 times; installing from the lists it has" >&2; break; }
-  echo "setup: apt-get update failed; retrying in 15 s" >&2; sleep 15
-done
-DEBIAN_FRONTEND=noninteractive "${SUDO[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
-echo "setup-cross: done"
+apt_install_missing setup-cross "${wanted[@]}"

@@ -28,27 +28,5 @@ for arg in "$@"; do
   esac
 done
 
-missing=()
-for p in "${core[@]}" "${extra[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if ((${#missing[@]} == 0)); then
-  echo "setup-deps: all ${#core[@]}+${#extra[@]} packages already installed"
-  exit 0
-fi
-
-SUDO=()
-if [[ $(id -u) -ne 0 ]]; then
-  command -v sudo >/dev/null || { echo "setup-deps: not root and no sudo: install as root: ${missing[*]}" >&2; exit 1; }
-  SUDO=(sudo)
-fi
-echo "setup-deps: installing ${#missing[@]} package(s): ${missing[*]}"
-# A mirror mid-sync fails an index now and then ("File has unexpected size"): retry.
-for try in 1 2 3; do
-  "${SUDO[@]}" apt-get update -q && break
-  # Still failing: install from the lists that did download; a missing package fails below.
-  ((try < 3)) || { echo "setup: apt-get update failed 3 times; installing from the lists it has" >&2; break; }
-  echo "setup: apt-get update failed; retrying in 15 s" >&2; sleep 15
-done
-DEBIAN_FRONTEND=noninteractive "${SUDO[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
-echo "setup-deps: done"
+source "$(dirname "$0")/lib/apt.sh"
+apt_install_missing setup-deps "${core[@]}" "${extra[@]}"
