@@ -263,6 +263,7 @@ void Executive::rt_cycle(Nanos now, double dt) {
   // Wheel odometry since the last cycle.
   WheelState ws;
   if (wheels_.read(&ws) && ws.stamp != last_wheel_stamp_) {
+    const Nanos t0 = last_wheel_stamp_ < 0 ? ws.stamp : last_wheel_stamp_;
     last_wheel_stamp_ = ws.stamp;
     const std::size_t cap = std::max<std::size_t>(cfg_.odometry_history, 1);
     if (steps_count_ == cap) {  // full: the oldest step joins the folded prefix
@@ -270,7 +271,7 @@ void Executive::rt_cycle(Nanos now, double dt) {
       steps_head_ = (steps_head_ + 1) % cap;
       --steps_count_;
     }
-    steps_[(steps_head_ + steps_count_) % cap] = {ws.stamp, odometry_.update(ws.left, ws.right)};
+    steps_[(steps_head_ + steps_count_) % cap] = {t0, ws.stamp, odometry_.update(ws.left, ws.right)};
     ++steps_count_;
   }
 
@@ -321,6 +322,19 @@ OdometryStep Executive::odometry_until(Nanos t) {
     accumulate(&out, steps_[steps_head_].step);
     steps_head_ = (steps_head_ + 1) % cap;
     --steps_count_;
+  }
+  // A wheel sample that spans t (several merged when the RT loop woke late): take the part
+  // of its arc before t, leave the rest queued.
+  if (steps_count_ > 0) {
+    TimedStep& s = steps_[steps_head_];
+    if (s.t0 < t && s.t > s.t0) {
+      const double f = static_cast<double>(t - s.t0) / static_cast<double>(s.t - s.t0);
+      OdometryStep head, tail;
+      split_step(s.step, f, &head, &tail);
+      accumulate(&out, head);
+      s.step = tail;
+      s.t0 = t;
+    }
   }
   return out;
 }

@@ -122,6 +122,7 @@ class Executive {
     Nanos stamp = 0;  // when these positions arrived
   };
   struct TimedStep {
+    Nanos t0 = 0;  // the previous wheel sample: the step covers (t0, t]
     Nanos t = 0;
     OdometryStep step;
   };

@@ -1,5 +1,6 @@
 #include "firmware/executive/odometry.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace cairn::firmware {
@@ -41,6 +42,21 @@ void accumulate(OdometryStep* acc, const OdometryStep& step) {
   acc->covariance = ja * acc->covariance * ja.transpose() + jb * step.covariance * jb.transpose();
   acc->delta = compose(acc->delta, step.delta);
   acc->distance += step.distance;
+}
+
+void split_step(const OdometryStep& step, double f, OdometryStep* head, OdometryStep* tail) {
+  f = std::clamp(f, 0.0, 1.0);
+  // The step is the chord (ds·cos h, ds·sin h, 2h) of an arc; recover the signed ds.
+  const double h = 0.5 * step.delta.theta;
+  const double along = step.delta.x * std::cos(h) + step.delta.y * std::sin(h);
+  const double ds = std::copysign(std::hypot(step.delta.x, step.delta.y), along);
+  const double hf = f * h;
+  head->delta = {f * ds * std::cos(hf), f * ds * std::sin(hf), f * step.delta.theta};
+  head->covariance = f * step.covariance;
+  head->distance = f * step.distance;
+  tail->delta = between(head->delta, step.delta);
+  tail->covariance = (1.0 - f) * step.covariance;
+  tail->distance = step.distance - head->distance;
 }
 
 }  // namespace cairn::firmware

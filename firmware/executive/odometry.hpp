@@ -42,4 +42,10 @@ Pose2 arc_from_wheels(double dl, double dr, double track, Eigen::Matrix<double, 
 /// Accumulates increments: acc ⊕ step, covariance propagated.
 void accumulate(OdometryStep* acc, const OdometryStep& step);
 
+/// Splits an arc step at fraction f ∈ [0, 1] of its travel: `head` is the first f of the
+/// same constant-curvature arc, `tail` the rest (head ⊕ tail = step); covariance and
+/// distance are shared in proportion. Lets a scan take the odometry up to its own time
+/// even when one wheel sample spans it (the RT loop woke late and merged several).
+void split_step(const OdometryStep& step, double f, OdometryStep* head, OdometryStep* tail);
+
 }  // namespace cairn::firmware
