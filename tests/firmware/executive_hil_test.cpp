@@ -153,6 +153,11 @@ TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
     for (const Vec2& p : world_path) local_path.push_back(inverse_transform_point(h.start, p));
     firmware::FollowerConfig fc;
     fc.speed = 1.0;
+    // This loop steers from the test thread every 20 ms. Under qemu or a sanitizer that loop
+    // runs several times slower, and pure pursuit at 1 m/s with the default 0.6 m lookahead
+    // then oscillates after the turn-arounds until the robot hits a pole. Steering is not
+    // what this test checks, so it looks further ahead there.
+    if (testing::timing_slack() > 1.0) fc.lookahead = 1.2;
     firmware::PathFollower follower(local_path, fc);
     ASSERT_GT(h.run_until([&] { return follower.done(); }, 150.0, &follower), 0) << "path not finished";
     h.run_until([] { return false; }, 0.5);  // stand still, drain
@@ -164,7 +169,12 @@ TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
     EXPECT_GT(h.odometry, 1000u);
     EXPECT_GT(h.lasers, 100u);
     EXPECT_GT(h.landmark_obs, 200u);
-    EXPECT_GT(static_cast<double>(h.landmark_near_pole), 0.95 * static_cast<double>(h.landmark_obs));
+    // A landmark lands within 15 cm of its pole only if the scan's stamp (and so the pose it is
+    // placed from) is close to when the laser took it. Natively that lag is well under a
+    // millisecond; under qemu or a sanitizer the I/O thread wakes tens of ms late (p99 period
+    // ~70 ms at 1 m/s is ~7 cm), so the bound there is looser.
+    const double near_share = testing::timing_slack() > 1.0 ? 0.90 : 0.95;
+    EXPECT_GT(static_cast<double>(h.landmark_near_pole), near_share * static_cast<double>(h.landmark_obs));
     std::printf("landmark observations %llu, %.1f %% within 15 cm of a pole\n",
                 static_cast<unsigned long long>(h.landmark_obs), 100.0 * static_cast<double>(h.landmark_near_pole) / static_cast<double>(h.landmark_obs));
   }
