@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds with warnings as errors, and runs the whole
 # test suite; then builds with ASan+UBSan and with TSan and runs the tests again;
-# then cross-builds the robot side for aarch64 and runs its tests under qemu-user.
+# then cross-builds the robot side for aarch64 and armhf and runs its tests under qemu-user.
 #   scripts/test.sh [--quick]   (--quick: skip the sanitizer, fuzz and cross passes)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -31,5 +31,7 @@ if ((quick == 0)); then
   scripts/fuzz.sh 30
   echo "== test: cross-build the robot side for aarch64 (-Werror); its tests and package under qemu-user"
   scripts/build-cross.sh aarch64 --test
+  echo "== test: cross-build the robot side for armhf (-Werror, sysroot); its tests and package under qemu-user"
+  scripts/build-cross.sh armhf --test
 fi
 echo "== test: all passed in $(( $(date +%s) - start )) s"
