@@ -44,12 +44,13 @@ IoResult fd_read(int fd, std::span<std::uint8_t> buffer, Nanos timeout) {
   return {IoResult::Status::kError, 0, errno};
 }
 
-IoResult fd_write(int fd, std::span<const std::uint8_t> bytes, Nanos timeout) {
+IoResult fd_write(int fd, std::span<const std::uint8_t> bytes, Nanos timeout, bool socket) {
   if (fd < 0) return {IoResult::Status::kClosed, 0, EBADF};
   const Nanos deadline = MonotonicClock::instance().now() + timeout;
   std::size_t done = 0;
   while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    const ssize_t n = socket ? ::send(fd, bytes.data() + done, bytes.size() - done, MSG_NOSIGNAL)
+                             : ::write(fd, bytes.data() + done, bytes.size() - done);
     if (n > 0) {
       done += static_cast<std::size_t>(n);
       continue;
@@ -173,7 +174,7 @@ bool TcpStream::connect_fd(std::string* error) {
 }
 
 IoResult TcpStream::read(std::span<std::uint8_t> buffer, Nanos timeout) { return fd_read(fd_, buffer, timeout); }
-IoResult TcpStream::write(std::span<const std::uint8_t> bytes, Nanos timeout) { return fd_write(fd_, bytes, timeout); }
+IoResult TcpStream::write(std::span<const std::uint8_t> bytes, Nanos timeout) { return fd_write(fd_, bytes, timeout, true); }
 
 bool TcpStream::set_baud(std::uint32_t baud, std::string* error) {
   if (baud == baud_) return true;

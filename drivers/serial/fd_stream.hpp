@@ -52,6 +52,7 @@ class TcpStream final : public ByteStream {
 
 /// Shared poll-based I/O on a non-blocking fd.
 IoResult fd_read(int fd, std::span<std::uint8_t> buffer, Nanos timeout);
-IoResult fd_write(int fd, std::span<const std::uint8_t> bytes, Nanos timeout);
+/// On a socket (`socket`), a peer that went away is kClosed (EPIPE), never a SIGPIPE.
+IoResult fd_write(int fd, std::span<const std::uint8_t> bytes, Nanos timeout, bool socket = false);
 
 }  // namespace cairn::serial

@@ -161,8 +161,10 @@ void LmsServer::serve_once(Nanos now) {
   was_busy_ = true;
   tx_credit_time_ += static_cast<Nanos>(static_cast<double>(budget) / bytes_per_ns);
   if (unplugged_ || fd_ < 0) return;  // bytes go nowhere
-  const ssize_t w = ::write(fd_, buf, budget);
-  (void)w;  // a full pty buffer drops bytes, as a UART overrun would
+  // A full pty buffer drops bytes, as a UART overrun would; a TCP client that went away is
+  // noticed by the next read (MSG_NOSIGNAL: no SIGPIPE for the process the bench runs in).
+  const ssize_t w = link_ == Link::kTcp ? ::send(fd_, buf, budget, MSG_NOSIGNAL) : ::write(fd_, buf, budget);
+  (void)w;
 }
 
 void LmsServer::unplug(bool unplugged) { unplugged_ = unplugged; }

@@ -1,9 +1,15 @@
 // The LMS2xx driver against the byte-exact emulator over a pty and over TCP: power-on
 // to streaming from every start baud, scans equal to the world's ray casts, every
-// injected fault survived and counted, and baud-aware timestamps.
+// injected fault survived and counted, baud-aware timestamps, and no SIGPIPE when a TCP
+// peer goes away.
 #include "drivers/sick/lms_driver.hpp"
 
 #include <gtest/gtest.h>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <mutex>
@@ -250,6 +256,37 @@ TEST(LmsDriver, StreamsOverTcpAtAFixedBaud) {
   const double t = b.wait_streaming(10, 5s);
   ASSERT_GT(t, 0) << b.reason();
   EXPECT_LT(t, 3.0 * testing::timing_slack());
+}
+
+// Neither end of a TCP link dies of SIGPIPE when the other goes away (a library user need
+// not ignore the signal): the driver's write reports the link closed, and the emulator,
+// still streaming to a client that left, carries on.
+TEST(LmsDriver, TcpPeerGoneIsClosedNotSigpipe) {
+  {
+    Bench b(hil::LmsServer::Link::kTcp, 500000);
+    b.start_io();
+    ASSERT_GT(b.wait_streaming(5, 5s), 0) << b.reason();
+    b.stop_io();
+    b.stream_.reset();  // the client leaves while the laser streams
+    std::this_thread::sleep_for(300ms);
+  }
+  const int listener = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof a;
+  ASSERT_EQ(::bind(listener, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  ASSERT_EQ(::listen(listener, 1), 0);
+  ASSERT_EQ(::getsockname(listener, reinterpret_cast<sockaddr*>(&a), &len), 0);
+  std::string err;
+  auto stream = serial::open_stream("tcp:127.0.0.1:" + std::to_string(ntohs(a.sin_port)), 500000, &err);
+  ASSERT_TRUE(stream) << err;
+  ::close(::accept(listener, nullptr, nullptr));  // the device server drops the connection
+  ::close(listener);
+  const std::uint8_t bytes[64] = {};
+  serial::IoResult r;
+  for (int i = 0; i < 100 && r.status != serial::IoResult::Status::kClosed; ++i) r = stream->write(bytes, 100 * kNanosPerMilli);
+  EXPECT_EQ(r.status, serial::IoResult::Status::kClosed);
 }
 
 TEST(LmsDriver, MissingPortsGiveClearErrors) {
