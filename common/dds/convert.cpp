@@ -1,0 +1,194 @@
+#include "common/dds/convert.hpp"
+
+#include <algorithm>
+#include <cstring>
+
+namespace cairn::dds {
+
+static_assert(cairn_MAX_BEAMS == msg::kMaxBeams && cairn_MAX_FEATURES == msg::kMaxFeatures &&
+                  cairn_MAX_LANDMARKS == msg::kMaxLandmarks && cairn_MAX_PATH == msg::kMaxPath,
+              "common/messages.hpp and common/idl/cairn.idl disagree on a capacity");
+
+namespace {
+
+template <std::size_t N>
+void copy_array(const std::array<double, N>& from, double (&to)[N]) {
+  std::copy(from.begin(), from.end(), to);
+}
+template <std::size_t N>
+void copy_array(const double (&from)[N], std::array<double, N>* to) {
+  std::copy(std::begin(from), std::end(from), to->begin());
+}
+
+/// Clamps a received count to the capacity; `ok` turns false when it had to.
+template <typename T>
+T clamp_count(T n, std::size_t cap, bool* ok) {
+  if (static_cast<std::size_t>(n) <= cap) return n;
+  *ok = false;
+  return static_cast<T>(cap);
+}
+
+}  // namespace
+
+void to_dds(const msg::OdometryIncrement& m, cairn_OdometryIncrement* out) {
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->t0_ns = m.t0;
+  out->t1_ns = m.t1;
+  out->delta = to_msg(m.delta);
+  copy_array(m.delta_cov, out->delta_cov);
+  out->local_pose = to_msg(m.local_pose);
+}
+
+bool from_dds(const cairn_OdometryIncrement& m, msg::OdometryIncrement* out) {
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->t0 = m.t0_ns;
+  out->t1 = m.t1_ns;
+  out->delta = from_msg(m.delta);
+  copy_array(m.delta_cov, &out->delta_cov);
+  out->local_pose = from_msg(m.local_pose);
+  return true;
+}
+
+void to_dds(const msg::LaserScan& m, cairn_LaserScan* out) {
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->stamp_ns = m.stamp;
+  out->angle_min = m.angle_min;
+  out->angle_increment = m.angle_increment;
+  out->beam_period_s = m.beam_period_s;
+  const std::size_t n = std::min<std::size_t>(m.n_beams, msg::kMaxBeams);
+  out->n_beams = static_cast<std::uint16_t>(n);
+  std::memcpy(out->ranges_mm, m.ranges_mm.data(), n * sizeof(std::uint16_t));
+  std::memcpy(out->reflectivity, m.reflectivity.data(), n);
+  out->pose = to_msg(m.pose);
+  copy_array(m.pose_cov, out->pose_cov);
+  out->sensor_offset = to_msg(m.sensor_offset);
+}
+
+bool from_dds(const cairn_LaserScan& m, msg::LaserScan* out) {
+  bool ok = true;
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->stamp = m.stamp_ns;
+  out->angle_min = m.angle_min;
+  out->angle_increment = m.angle_increment;
+  out->beam_period_s = m.beam_period_s;
+  out->n_beams = clamp_count(m.n_beams, msg::kMaxBeams, &ok);
+  std::memcpy(out->ranges_mm.data(), m.ranges_mm, out->n_beams * sizeof(std::uint16_t));
+  std::memcpy(out->reflectivity.data(), m.reflectivity, out->n_beams);
+  out->pose = from_msg(m.pose);
+  copy_array(m.pose_cov, &out->pose_cov);
+  out->sensor_offset = from_msg(m.sensor_offset);
+  return ok;
+}
+
+void to_dds(const msg::FeatureObservations& m, cairn_FeatureObservations* out) {
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->stamp_ns = m.stamp;
+  out->local_pose = to_msg(m.local_pose);
+  out->odom_seq = m.odom_seq;
+  const std::size_t n = std::min<std::size_t>(m.n_features, msg::kMaxFeatures);
+  out->n_features = static_cast<std::uint8_t>(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const msg::Feature& f = m.features[i];
+    cairn_Feature& o = out->features[i];
+    o.kind = f.kind == msg::FeatureKind::kRobot ? cairn_FEATURE_ROBOT : cairn_FEATURE_LANDMARK;
+    o.marker_id = f.marker_id;
+    o.range = f.range;
+    o.bearing = f.bearing;
+    copy_array(f.cov, o.cov);
+  }
+}
+
+bool from_dds(const cairn_FeatureObservations& m, msg::FeatureObservations* out) {
+  bool ok = true;
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->stamp = m.stamp_ns;
+  out->local_pose = from_msg(m.local_pose);
+  out->odom_seq = m.odom_seq;
+  out->n_features = clamp_count(m.n_features, msg::kMaxFeatures, &ok);
+  for (std::size_t i = 0; i < out->n_features; ++i) {
+    const cairn_Feature& f = m.features[i];
+    msg::Feature& o = out->features[i];
+    if (f.kind != cairn_FEATURE_ROBOT && f.kind != cairn_FEATURE_LANDMARK) ok = false;
+    o.kind = f.kind == cairn_FEATURE_ROBOT ? msg::FeatureKind::kRobot : msg::FeatureKind::kLandmark;
+    o.marker_id = f.marker_id;
+    o.range = f.range;
+    o.bearing = f.bearing;
+    copy_array(f.cov, &o.cov);
+  }
+  return ok;
+}
+
+void to_dds(const msg::PoseCorrection& m, cairn_PoseCorrection* out) {
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->stamp_ns = m.stamp;
+  out->local_to_global = to_msg(m.local_to_global);
+  out->global_pose = to_msg(m.global_pose);
+  copy_array(m.global_cov, out->global_cov);
+}
+
+bool from_dds(const cairn_PoseCorrection& m, msg::PoseCorrection* out) {
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->stamp = m.stamp_ns;
+  out->local_to_global = from_msg(m.local_to_global);
+  out->global_pose = from_msg(m.global_pose);
+  copy_array(m.global_cov, &out->global_cov);
+  return true;
+}
+
+void to_dds(const msg::TaskAssignment& m, cairn_TaskAssignment* out) {
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->task_id = m.task_id;
+  out->issued_ns = m.issued;
+  out->kind = static_cast<cairn_TaskKind>(static_cast<int>(m.kind));
+  out->target_x = m.target_x;
+  out->target_y = m.target_y;
+  const std::size_t n = std::min<std::size_t>(m.n_path, msg::kMaxPath);
+  out->n_path = static_cast<std::uint16_t>(n);
+  std::copy_n(m.path_xy.begin(), 2 * n, out->path_xy);
+}
+
+bool from_dds(const cairn_TaskAssignment& m, msg::TaskAssignment* out) {
+  bool ok = true;
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->task_id = m.task_id;
+  out->issued = m.issued_ns;
+  const int kind = static_cast<int>(m.kind);
+  if (kind < 0 || kind > static_cast<int>(msg::TaskKind::kStop)) {
+    ok = false;
+    out->kind = msg::TaskKind::kStop;  // an unknown command stops rather than moves
+  } else {
+    out->kind = static_cast<msg::TaskKind>(kind);
+  }
+  out->target_x = m.target_x;
+  out->target_y = m.target_y;
+  out->n_path = clamp_count(m.n_path, msg::kMaxPath, &ok);
+  std::copy_n(m.path_xy, 2 * out->n_path, out->path_xy.begin());
+  return ok;
+}
+
+void to_dds_page(const msg::Landmark* all, std::size_t count, std::size_t first, std::uint32_t seq, Nanos stamp,
+                 cairn_FeatureMap* out) {
+  out->robot_id = 0;
+  out->seq = seq;
+  out->stamp_ns = stamp;
+  out->n_landmarks = 0;
+  for (std::size_t i = first; i < count && out->n_landmarks < msg::kMaxLandmarks; ++i) {
+    cairn_Landmark& l = out->landmarks[out->n_landmarks++];
+    l.id = all[i].id;
+    l.x = all[i].x;
+    l.y = all[i].y;
+    copy_array(all[i].cov, l.cov);
+  }
+}
+
+}  // namespace cairn::dds

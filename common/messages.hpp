@@ -1,0 +1,124 @@
+// Cairn's own message types: what the robot pipeline emits and the base station's
+// fusion, mapper and executive consume. They mirror the DDS topics of common/idl/cairn.idl
+// but carry no transport: the robot executive, the base's fusion and cairn-sim speak these,
+// and one conversion unit (common/dds/convert.hpp) maps them to and from the IDL structs
+// at each edge. Every message is trivially copyable and of fixed size (arrays + counts),
+// so it goes through an SPSC queue, a log record or a snapshot as plain bytes, and the
+// robot never allocates to fill one.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <type_traits>
+
+#include "common/clock.hpp"
+#include "common/se2.hpp"
+
+namespace cairn::msg {
+
+// Capacities: the IDL's constants must equal these (common/dds/convert.cpp checks it).
+constexpr std::size_t kMaxBeams = 721;      // LMS2xx 180 deg at 0.25 deg
+constexpr std::size_t kMaxFeatures = 32;    // per FeatureObservations
+constexpr std::size_t kMaxLandmarks = 128;  // per FeatureMap page
+constexpr std::size_t kMaxPath = 64;        // waypoints in a TaskAssignment
+
+/// Row-major 3x3 / 2x2 covariances as plain arrays (Eigen types are not trivially copyable).
+using Cov3 = std::array<double, 9>;
+using Cov2 = std::array<double, 4>;
+
+inline Mat3 to_mat(const Cov3& c) {
+  Mat3 m;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) m(r, k) = c[static_cast<std::size_t>(r * 3 + k)];
+  return m;
+}
+inline Mat2 to_mat(const Cov2& c) {
+  Mat2 m;
+  m << c[0], c[1], c[2], c[3];
+  return m;
+}
+inline Cov3 to_cov(const Mat3& m) {
+  Cov3 c;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) c[static_cast<std::size_t>(r * 3 + k)] = m(r, k);
+  return c;
+}
+inline Cov2 to_cov(const Mat2& m) { return {m(0, 0), m(0, 1), m(1, 0), m(1, 1)}; }
+
+/// Motion between two instants in the robot frame at t0 (scan-matched), and the robot's
+/// corrected local pose at t1.
+struct OdometryIncrement {
+  std::uint16_t robot_id = 0;
+  std::uint32_t seq = 0;
+  Nanos t0 = 0, t1 = 0;
+  Pose2 delta;
+  Cov3 delta_cov{};
+  Pose2 local_pose;
+};
+
+/// One laser scan with the corrected local pose of the sensor at its first beam.
+struct LaserScan {
+  std::uint16_t robot_id = 0;
+  std::uint32_t seq = 0;
+  Nanos stamp = 0;  // time of the first beam
+  float angle_min = 0, angle_increment = 0, beam_period_s = 0;
+  std::uint16_t n_beams = 0;
+  std::array<std::uint16_t, kMaxBeams> ranges_mm{};  // 0 = no return
+  std::array<std::uint8_t, kMaxBeams> reflectivity{};
+  Pose2 pose;  // sensor, local frame
+  Cov3 pose_cov{};
+  Pose2 sensor_offset;  // laser in the robot frame
+};
+
+enum class FeatureKind : std::uint8_t { kLandmark = 0, kRobot = 1 };
+
+struct Feature {
+  FeatureKind kind = FeatureKind::kLandmark;
+  std::int32_t marker_id = -1;  // robot id of a decoded robot marker, else -1
+  double range = 0, bearing = 0;
+  Cov2 cov{};  // (range, bearing)
+};
+
+struct FeatureObservations {
+  std::uint16_t robot_id = 0;
+  std::uint32_t seq = 0;
+  Nanos stamp = 0;
+  Pose2 local_pose;
+  std::uint32_t odom_seq = 0;  // last OdometryIncrement folded into local_pose
+  std::uint8_t n_features = 0;
+  std::array<Feature, kMaxFeatures> features{};
+};
+
+/// The base's estimate for one robot: global = local_to_global ⊕ local.
+struct PoseCorrection {
+  std::uint16_t robot_id = 0;
+  std::uint32_t seq = 0;
+  Nanos stamp = 0;
+  Pose2 local_to_global;
+  Pose2 global_pose;
+  Cov3 global_cov{};
+};
+
+enum class TaskKind : std::uint8_t { kIdle = 0, kExplore = 1, kGoto = 2, kStop = 3 };
+
+struct TaskAssignment {
+  std::uint16_t robot_id = 0;
+  std::uint32_t seq = 0, task_id = 0;
+  Nanos issued = 0;
+  TaskKind kind = TaskKind::kIdle;
+  double target_x = 0, target_y = 0;  // global frame
+  std::uint16_t n_path = 0;
+  std::array<double, 2 * kMaxPath> path_xy{};  // global frame, x0 y0 x1 y1 ...
+};
+
+struct Landmark {
+  std::uint32_t id = 0;
+  double x = 0, y = 0;
+  Cov2 cov{};
+};
+
+static_assert(std::is_trivially_copyable_v<OdometryIncrement> && std::is_trivially_copyable_v<LaserScan> &&
+              std::is_trivially_copyable_v<FeatureObservations> && std::is_trivially_copyable_v<PoseCorrection> &&
+              std::is_trivially_copyable_v<TaskAssignment> && std::is_trivially_copyable_v<Landmark>);
+
+}  // namespace cairn::msg

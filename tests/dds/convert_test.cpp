@@ -1,0 +1,141 @@
+// Round trips between Cairn's messages and the IDL structs (common/dds/convert.hpp), and
+// the clamping of hostile counts on the way in.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <memory>
+
+#include "common/dds/convert.hpp"
+
+namespace cairn {
+namespace {
+
+template <typename T>
+bool same_bytes(const T& a, const T& b) {
+  return std::memcmp(&a, &b, sizeof(T)) == 0;
+}
+
+TEST(Convert, OdometryRoundTrip) {
+  msg::OdometryIncrement a;
+  a.robot_id = 7;
+  a.seq = 42;
+  a.t0 = 1'000'000'123;
+  a.t1 = 1'013'000'456;
+  a.delta = {0.1, -0.02, 0.03};
+  for (std::size_t i = 0; i < 9; ++i) a.delta_cov[i] = 0.001 * static_cast<double>(i + 1);
+  a.local_pose = {3.0, 4.0, -1.0};
+  cairn_OdometryIncrement d{};
+  dds::to_dds(a, &d);
+  EXPECT_EQ(d.seq, 42u);
+  EXPECT_DOUBLE_EQ(d.delta_cov[5], 0.006);
+  msg::OdometryIncrement b;
+  EXPECT_TRUE(dds::from_dds(d, &b));
+  EXPECT_EQ(b.robot_id, 7);
+  EXPECT_EQ(b.t0, a.t0);
+  EXPECT_EQ(b.t1, a.t1);
+  EXPECT_EQ(b.delta_cov, a.delta_cov);
+  EXPECT_DOUBLE_EQ(b.local_pose.theta, -1.0);
+}
+
+TEST(Convert, LaserScanRoundTripAndClamp) {
+  auto a = std::make_unique<msg::LaserScan>();
+  a->robot_id = 2;
+  a->seq = 9;
+  a->stamp = 77;
+  a->angle_min = -1.5f;
+  a->angle_increment = 0.0087f;
+  a->beam_period_s = 1.85e-5f;
+  a->n_beams = 361;
+  for (std::size_t i = 0; i < 361; ++i) {
+    a->ranges_mm[i] = static_cast<std::uint16_t>(1000 + i);
+    a->reflectivity[i] = static_cast<std::uint8_t>(i % 3);
+  }
+  a->pose = {1, 2, 3};
+  a->sensor_offset = {0.2, 0, 0};
+  auto d = std::make_unique<cairn_LaserScan>();
+  std::memset(d.get(), 0, sizeof *d);
+  dds::to_dds(*a, d.get());
+  auto b = std::make_unique<msg::LaserScan>();
+  EXPECT_TRUE(dds::from_dds(*d, b.get()));
+  EXPECT_TRUE(same_bytes(*a, *b));
+  d->n_beams = 60000;  // hostile
+  EXPECT_FALSE(dds::from_dds(*d, b.get()));
+  EXPECT_EQ(b->n_beams, msg::kMaxBeams);
+}
+
+TEST(Convert, FeaturesRoundTripAndClamp) {
+  msg::FeatureObservations a;
+  a.robot_id = 3;
+  a.seq = 5;
+  a.stamp = 99;
+  a.local_pose = {1, 1, 0.5};
+  a.odom_seq = 4;
+  a.n_features = 2;
+  a.features[0] = {msg::FeatureKind::kLandmark, -1, 4.0, 0.3, {0.0009, 0, 0, 1e-4}};
+  a.features[1] = {msg::FeatureKind::kRobot, 2, 6.0, -0.3, {0.001, 1e-6, 1e-6, 2e-4}};
+  cairn_FeatureObservations d{};
+  dds::to_dds(a, &d);
+  EXPECT_EQ(d.features[1].kind, cairn_FEATURE_ROBOT);
+  EXPECT_EQ(d.features[1].marker_id, 2);
+  msg::FeatureObservations b;
+  EXPECT_TRUE(dds::from_dds(d, &b));
+  EXPECT_TRUE(same_bytes(a, b));
+  d.n_features = 200;
+  EXPECT_FALSE(dds::from_dds(d, &b));
+  EXPECT_EQ(b.n_features, msg::kMaxFeatures);
+  d.n_features = 1;
+  d.features[0].kind = static_cast<cairn_FeatureKind>(9);
+  EXPECT_FALSE(dds::from_dds(d, &b));
+}
+
+TEST(Convert, CorrectionAndTaskRoundTrip) {
+  msg::PoseCorrection c;
+  c.robot_id = 4;
+  c.seq = 8;
+  c.stamp = 123;
+  c.local_to_global = {1, 2, 0.1};
+  c.global_pose = {3, 4, 0.2};
+  c.global_cov[0] = 0.01;
+  cairn_PoseCorrection dc{};
+  dds::to_dds(c, &dc);
+  msg::PoseCorrection c2;
+  EXPECT_TRUE(dds::from_dds(dc, &c2));
+  EXPECT_TRUE(same_bytes(c, c2));
+
+  msg::TaskAssignment t;
+  t.robot_id = 4;
+  t.seq = 1;
+  t.task_id = 17;
+  t.issued = 5;
+  t.kind = msg::TaskKind::kGoto;
+  t.target_x = 9;
+  t.target_y = -9;
+  t.n_path = 3;
+  for (std::size_t i = 0; i < 6; ++i) t.path_xy[i] = static_cast<double>(i);
+  cairn_TaskAssignment dt{};
+  dds::to_dds(t, &dt);
+  msg::TaskAssignment t2;
+  EXPECT_TRUE(dds::from_dds(dt, &t2));
+  EXPECT_TRUE(same_bytes(t, t2));
+  dt.n_path = 1000;
+  dt.kind = static_cast<cairn_TaskKind>(42);
+  EXPECT_FALSE(dds::from_dds(dt, &t2));
+  EXPECT_EQ(t2.n_path, msg::kMaxPath);
+  EXPECT_EQ(t2.kind, msg::TaskKind::kStop);
+}
+
+TEST(Convert, LandmarkPages) {
+  std::vector<msg::Landmark> all(300);
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = {static_cast<std::uint32_t>(i), 1.0 * i, -1.0 * i, {1, 0, 0, 1}};
+  auto d = std::make_unique<cairn_FeatureMap>();
+  std::size_t seen = 0;
+  for (std::size_t first = 0; first < all.size(); first += msg::kMaxLandmarks) {
+    dds::to_dds_page(all.data(), all.size(), first, 1, 2, d.get());
+    for (std::size_t i = 0; i < d->n_landmarks; ++i) EXPECT_EQ(d->landmarks[i].id, first + i);
+    seen += d->n_landmarks;
+  }
+  EXPECT_EQ(seen, all.size());
+}
+
+}  // namespace
+}  // namespace cairn
