@@ -1,5 +1,7 @@
 #include "common/clock.hpp"
 
+#include "common/event_count.hpp"
+
 #include <cerrno>
 #include <ctime>
 
@@ -17,6 +19,15 @@ void MonotonicClock::sleep_until(Nanos deadline) {
   ts.tv_nsec = static_cast<long>(deadline % kNanosPerSecond);
   while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
   }
+}
+
+bool Clock::wait_event(const EventCount& event, std::uint32_t seen, Nanos deadline) {
+  sleep_until(deadline);
+  return event.value() != seen;
+}
+
+bool MonotonicClock::wait_event(const EventCount& event, std::uint32_t seen, Nanos deadline) {
+  return event.wait_until(seen, deadline);
 }
 
 MonotonicClock& MonotonicClock::instance() {

@@ -9,6 +9,8 @@
 
 namespace cairn {
 
+class EventCount;
+
 using Nanos = std::int64_t;
 constexpr Nanos kNanosPerSecond = 1'000'000'000;
 constexpr Nanos kNanosPerMilli = 1'000'000;
@@ -32,6 +34,10 @@ class Clock {
   virtual Nanos now() const = 0;
   /// Blocks until now() >= deadline (absolute). Returns at once if already past.
   virtual void sleep_until(Nanos deadline) = 0;
+  /// Blocks until `event` moves past `seen` or now() >= deadline; true if it moved. This
+  /// default sleeps to the deadline (a simulated clock has no early wake-up); the
+  /// monotonic clock wakes on the event at once.
+  virtual bool wait_event(const EventCount& event, std::uint32_t seen, Nanos deadline);
 };
 
 /// CLOCK_MONOTONIC with absolute-deadline sleeps (clock_nanosleep TIMER_ABSTIME).
@@ -39,6 +45,7 @@ class MonotonicClock final : public Clock {
  public:
   Nanos now() const override;
   void sleep_until(Nanos deadline) override;
+  bool wait_event(const EventCount& event, std::uint32_t seen, Nanos deadline) override;
   /// The process-wide instance (stateless, so sharing it is free).
   static MonotonicClock& instance();
 };

@@ -7,6 +7,7 @@
 #include "common/config.hpp"
 #include "common/log.hpp"
 #include "common/program.hpp"
+#include "firmware/executive/devices.hpp"
 #include "firmware/navigator.hpp"
 #include "firmware/robot_bridge.hpp"
 #include "firmware/robot_config.hpp"
@@ -65,9 +66,12 @@ int run(const std::string& config_path, int id_override, const std::string& name
   dds::Participant pp(cfg.dds);
   CAIRN_LOG_INFO("robot", "{}; DDS {}", describe(cfg), pp.describe());
   firmware::RobotBridge bridge(pp, cfg);
+  auto& clock = MonotonicClock::instance();
   std::unique_ptr<firmware::Executive> exec;
   if (cfg.has_devices) {
-    exec = std::make_unique<firmware::Executive>(cfg.executive);
+    firmware::ExecutiveDevices devices =
+        firmware::open_devices(cfg.executive, clock, [] { return !shutdown_requested(); });
+    exec = std::make_unique<firmware::Executive>(cfg.executive, clock, std::move(devices));
     exec->start();
   }
   firmware::Navigator nav(cfg.motion);
@@ -79,7 +83,6 @@ int run(const std::string& config_path, int id_override, const std::string& name
                    nanos_to_seconds(service.watchdog_interval()));
   }
 
-  auto& clock = MonotonicClock::instance();
   const Nanos start = clock.now();
   const Nanos end = duration_s > 0 ? start + seconds_to_nanos(duration_s) : 0;
   const Nanos tick = exec ? cfg.bridge_period : 50 * kNanosPerMilli;
@@ -88,7 +91,7 @@ int run(const std::string& config_path, int id_override, const std::string& name
     const Nanos now = clock.now();
     if (exec) {
       bridge.forward(*exec);
-      const bool heard = bridge.poll_inputs([&](const cairn_TaskAssignment& t) {
+      const bool heard = bridge.poll_inputs([&](const msg::TaskAssignment& t) {
         const std::string why = nav.on_task(t, bridge.local_to_global());
         if (!why.empty()) CAIRN_LOG_WARN("robot", "{}", why);
       });
@@ -107,9 +110,15 @@ int run(const std::string& config_path, int id_override, const std::string& name
       next_status += cfg.status_period;
       bridge.publish_status(exec.get(), now);
     }
-    next += tick;
-    if (next < now) next = now;  // fell behind (a debugger, a stall): do not burst
-    clock.sleep_until(next);
+    if (next <= now) next = now + tick;  // an early wake keeps the tick; a stall does not burst
+    if (exec) {
+      // Woken by the RT thread as soon as it queues a message (a scan's OdometryIncrement
+      // goes out at once), else at the next tick for inputs and status.
+      const std::uint32_t seen = exec->output_event().value();
+      if (!exec->has_output()) clock.wait_event(exec->output_event(), seen, next);
+    } else {
+      clock.sleep_until(next);
+    }
   }
   service.stopping();
   if (exec) {

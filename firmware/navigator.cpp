@@ -11,18 +11,18 @@ Navigator::Navigator(const MotionConfig& cfg) : follower_cfg_(cfg.follower) {
   if (!cfg.waypoints.empty()) follower_ = std::make_unique<PathFollower>(cfg.waypoints, follower_cfg_);
 }
 
-std::string Navigator::on_task(const cairn_TaskAssignment& task, const std::optional<Pose2>& local_to_global) {
+std::string Navigator::on_task(const msg::TaskAssignment& task, const std::optional<Pose2>& local_to_global) {
   if (task.task_id == task_id_) return {};  // a repeat (the topic is latched)
   switch (task.kind) {
-    case cairn_TASK_STOP:
-    case cairn_TASK_IDLE:
+    case msg::TaskKind::kStop:
+    case msg::TaskKind::kIdle:
       follower_.reset();
       task_id_ = task.task_id;
       return {};
-    case cairn_TASK_GOTO:
-    case cairn_TASK_EXPLORE: {
+    case msg::TaskKind::kGoto:
+    case msg::TaskKind::kExplore: {
       if (!local_to_global) return "task " + std::to_string(task.task_id) + ": no PoseCorrection yet, no global frame to follow it in";
-      const unsigned n = std::min<unsigned>(task.n_path, cairn_MAX_PATH);
+      const unsigned n = std::min<unsigned>(task.n_path, static_cast<unsigned>(msg::kMaxPath));
       std::vector<Vec2> local;
       for (unsigned i = 0; i < n; ++i) {
         const Vec2 g(task.path_xy[2 * i], task.path_xy[2 * i + 1]);

@@ -7,7 +7,7 @@
 #include <optional>
 #include <string>
 
-#include "cairn.h"
+#include "common/messages.hpp"
 #include "common/se2.hpp"
 #include "firmware/executive/path_follower.hpp"
 
@@ -20,7 +20,7 @@ class Navigator {
   explicit Navigator(const MotionConfig& cfg);
   /// Applies a task. Returns an empty string, or why it was refused (a GOTO before
   /// any PoseCorrection has no frame to be followed in; a NaN in the path).
-  std::string on_task(const cairn_TaskAssignment& task, const std::optional<Pose2>& local_to_global);
+  std::string on_task(const msg::TaskAssignment& task, const std::optional<Pose2>& local_to_global);
   /// Velocity to request now (zero when idle or done).
   void command(const Pose2& local_pose, double* v, double* w);
   bool active() const { return follower_ != nullptr && !follower_->done(); }

@@ -57,10 +57,20 @@ void RobotBridge::write(dds::Writer<T>& w, const T& sample, std::uint64_t* count
 
 std::size_t RobotBridge::forward(Executive& exec) {
   const std::uint64_t before = counters_.odometry + counters_.lasers + counters_.features;
-  cairn_OdometryIncrement inc;
-  while (exec.pop_odometry(&inc)) write(odom_writer_, inc, &counters_.odometry);
-  while (exec.pop_features(feat_.get())) write(feat_writer_, *feat_, &counters_.features);
-  while (exec.pop_laser(laser_.get())) write(laser_writer_, *laser_, &counters_.lasers);
+  msg::OdometryIncrement inc;
+  cairn_OdometryIncrement inc_dds{};
+  while (exec.pop_odometry(&inc)) {
+    dds::to_dds(inc, &inc_dds);
+    write(odom_writer_, inc_dds, &counters_.odometry);
+  }
+  while (exec.pop_features(feat_.get())) {
+    dds::to_dds(*feat_, feat_dds_.get());
+    write(feat_writer_, *feat_dds_, &counters_.features);
+  }
+  while (exec.pop_laser(laser_.get())) {
+    dds::to_dds(*laser_, laser_dds_.get());
+    write(laser_writer_, *laser_dds_, &counters_.lasers);
+  }
   return static_cast<std::size_t>(counters_.odometry + counters_.lasers + counters_.features - before);
 }
 

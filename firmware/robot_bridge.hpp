@@ -1,4 +1,5 @@
-// The robot's DDS side (a non-RT worker): drains the executive's queues onto the
+// The robot's DDS edge (a non-RT worker): converts Cairn's messages (common/dds/convert.hpp)
+// and drains the executive's queues onto the
 // OdometryIncrement, LaserScan and FeatureObservations topics, publishes RobotStatus
 // (loop statistics, stop reason, devices), and takes this robot's PoseCorrection and
 // TaskAssignment, which keep the base-station link alive. With no executive (a robot
@@ -17,6 +18,7 @@ namespace cairn::firmware {
 
 struct BridgeCounters {
   std::uint64_t odometry = 0, lasers = 0, features = 0, statuses = 0, corrections = 0, tasks = 0, write_failures = 0;
+  std::uint64_t invalid_inputs = 0;  // samples from the base that had to be clamped
 };
 
 class RobotBridge {
@@ -55,8 +57,11 @@ class RobotBridge {
   dds::Reader<cairn_PoseCorrection> corr_reader_;
   dds::Reader<cairn_TaskAssignment> task_reader_;
   cairn_RobotStatus status_{};
-  std::unique_ptr<cairn_LaserScan> laser_ = std::make_unique<cairn_LaserScan>();
-  std::unique_ptr<cairn_FeatureObservations> feat_ = std::make_unique<cairn_FeatureObservations>();
+  // Conversion buffers, reserved once (a LaserScan is ~3 KB).
+  std::unique_ptr<msg::LaserScan> laser_ = std::make_unique<msg::LaserScan>();
+  std::unique_ptr<msg::FeatureObservations> feat_ = std::make_unique<msg::FeatureObservations>();
+  std::unique_ptr<cairn_LaserScan> laser_dds_ = std::make_unique<cairn_LaserScan>();
+  std::unique_ptr<cairn_FeatureObservations> feat_dds_ = std::make_unique<cairn_FeatureObservations>();
   std::optional<Pose2> local_to_global_;
   bool ever_ready_ = false;
   BridgeCounters counters_;
@@ -76,7 +81,9 @@ bool RobotBridge::poll_inputs(OnTask&& on_task) {
     if (t.robot_id != cfg_.id) return;
     ++counters_.tasks;
     heard = true;
-    on_task(t);
+    msg::TaskAssignment task;
+    if (!dds::from_dds(t, &task)) ++counters_.invalid_inputs;  // clamped; an unknown kind became STOP
+    on_task(task);
   });
   return heard;
 }

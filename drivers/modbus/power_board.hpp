@@ -10,38 +10,13 @@
 #include <string>
 
 #include "common/clock.hpp"
+#include "drivers/modbus/power_link.hpp"
 
 typedef struct _modbus modbus_t;
 
 namespace cairn::modbus {
 
-struct RegisterMap {
-  int slave = 1;
-  int voltage = 0, current = 1, soc = 2, temperature = 3;  // input register addresses
-  int estop = 0;                                           // discrete input (1 = pressed)
-  int motor_relay = 0;                                     // coil (1 = motor power on)
-  double voltage_scale = 0.01;     // V per count (u16)
-  double current_scale = 0.01;     // A per count (i16, positive = discharging)
-  double soc_scale = 0.1;          // % per count (u16)
-  double temperature_scale = 0.1;  // °C per count (i16)
-};
-
-struct PowerState {
-  bool valid = false;
-  double voltage = 0, current = 0, soc = 0, temperature = 0;
-  bool estop = false;
-  Nanos stamp = 0;
-};
-
-/// Decodes the four input registers (in map order: voltage, current, soc, temperature)
-/// and the e-stop bit; false if a value is outside what a power board can report.
-bool decode_power(const std::uint16_t regs[4], bool estop, const RegisterMap& map, PowerState* out);
-
-struct PowerCounters {
-  std::uint64_t polls = 0, errors = 0, timeouts = 0, reconnects = 0, invalid = 0;
-};
-
-class PowerBoard {
+class PowerBoard final : public PowerLink {
  public:
   /// "tcp:HOST:PORT" or "rtu:DEVICE:BAUD" (8N1). Nullptr and a message on failure.
   static std::unique_ptr<PowerBoard> open(const std::string& uri, const RegisterMap& map, Nanos response_timeout,
@@ -49,12 +24,12 @@ class PowerBoard {
   ~PowerBoard();
 
   /// Reads all values (two transactions). False with a reason on failure (counted).
-  bool poll(PowerState* out, std::string* error);
+  bool poll(PowerState* out, std::string* error) override;
   /// The e-stop fast path: one short transaction reading only the e-stop input.
   /// Returns 1 pressed, 0 released, -1 on failure.
-  int estop_pressed();
-  bool set_motor_power(bool on, std::string* error);
-  const PowerCounters& counters() const { return counters_; }
+  int estop_pressed() override;
+  bool set_motor_power(bool on, std::string* error) override;
+  const PowerCounters& counters() const override { return counters_; }
 
  private:
   PowerBoard(modbus_t* ctx, std::string uri, const RegisterMap& map) : ctx_(ctx), uri_(std::move(uri)), map_(map) {}

@@ -4,8 +4,9 @@
 // publish the scan's corrected OdometryIncrement; a second DDS participant (loopback
 // profile) takes it. Reports last byte -> corrected pose on DDS (p50, p99) and the RT
 // loop's period/jitter, first with the second core idle (baseline), then with it
-// loaded by a busy thread, in the same run.
-//   cairn-bench-robot-latency [--seconds 20] [--priority 80]
+// loaded by a busy thread, in the same run. Fails (exit 1) when the p99 latency of either
+// phase exceeds --max-p99-ms (default 2 ms) or too few scans were measured.
+//   cairn-bench-robot-latency [--seconds 20] [--priority 80] [--max-p99-ms 2] [--json]
 #include <pthread.h>
 #include <sched.h>
 
@@ -16,6 +17,9 @@
 #include <thread>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
+#include "firmware/executive/devices.hpp"
 #include "firmware/executive/path_follower.hpp"
 #include "firmware/robot_bridge.hpp"
 #include "hil/bench/robot_bench.hpp"
@@ -61,13 +65,13 @@ Phase run_phase(const std::string& world_path, double seconds, int priority, boo
   firmware::RobotBridge bridge(robot_pp, rc);
   dds::Topic<cairn_OdometryIncrement> topic(listener_pp);
   dds::Reader<cairn_OdometryIncrement> reader(listener_pp, topic, dds::latched_qos(512));
-  firmware::Executive exec(ec);
+  auto& clock = MonotonicClock::instance();
+  firmware::Executive exec(ec, clock, firmware::open_devices(ec, clock, [] { return false; }));
   exec.start();
 
   std::atomic<bool> running{true};
   std::vector<std::pair<Nanos, Nanos>> received;  // (t1 of the increment, receive time)
   std::thread listener([&] {
-    auto& clock = MonotonicClock::instance();
     while (running) {
       reader.wait(20 * kNanosPerMilli);
       reader.take([&](const cairn_OdometryIncrement& m, const dds_sample_info_t&) { received.emplace_back(m.t1_ns, clock.now()); });
@@ -89,7 +93,6 @@ Phase run_phase(const std::string& world_path, double seconds, int priority, boo
   fc.speed = 0.8;
   fc.loop = true;
   firmware::PathFollower follower({{15, 0}, {0, 0}}, fc);
-  auto& clock = MonotonicClock::instance();
   const Nanos t0 = clock.now(), end = t0 + seconds_to_nanos(seconds + 3);
   const Nanos measure_from = t0 + 3 * kNanosPerSecond;  // drivers up, robot moving
   Nanos next = t0;
@@ -100,8 +103,10 @@ Phase run_phase(const std::string& world_path, double seconds, int priority, boo
     double v = 0, w = 0;
     follower.command(exec.rt_snapshot().local_pose, &v, &w);
     exec.set_velocity(v, w, now);
-    next += rc.bridge_period;
-    clock.sleep_until(next);
+    // As cairn-robot's main loop: woken by the RT thread's outputs, else at the tick.
+    if (next <= now) next = now + rc.bridge_period;
+    const std::uint32_t seen = exec.output_event().value();
+    if (!exec.has_output()) clock.wait_event(exec.output_event(), seen, next);
   }
   Phase out;
   out.rt = exec.rt_snapshot();
@@ -133,39 +138,75 @@ Phase run_phase(const std::string& world_path, double seconds, int priority, boo
     const Nanos last_byte = best->tx_start + static_cast<Nanos>(static_cast<double>(best->bytes) * 10.0 / baud * 1e9);
     out.latency_ms.push_back(nanos_to_seconds(rx - last_byte) * 1e3);
   }
-  std::printf("  %s: %s\n", load ? "loaded" : "idle", exec.rt_reports()[3].c_str());
+  std::fprintf(stderr, "  %s: %s\n", load ? "loaded" : "idle", exec.rt_reports()[3].c_str());
   return out;
 }
 
 }  // namespace
 
+nlohmann::json phase_json(const Phase& p) {
+  return {{"scans", p.latency_ms.size()},
+          {"unmatched", p.unmatched},
+          {"latency_p50_ms", percentile(p.latency_ms, 0.5)},
+          {"latency_p99_ms", percentile(p.latency_ms, 0.99)},
+          {"latency_max_ms", percentile(p.latency_ms, 1.0)},
+          {"period_p99_us", p.rt.period_p99_us},
+          {"jitter_max_us", p.rt.jitter_max_us},
+          {"deadline_misses", p.rt.misses}};
+}
+
 int main(int argc, char** argv) {
   CLI::App app{"cairn-bench-robot-latency: scan last byte -> corrected pose on DDS, and RT jitter, idle vs loaded core"};
-  double seconds = 20;
+  double seconds = 20, max_p99_ms = 2.0;
   int priority = 80;
+  bool json = false;
   std::string world = std::string(CAIRN_SOURCE_DIR_STR) + "/hil/worlds/office.world";
   app.add_option("--seconds", seconds, "measured seconds per phase")->capture_default_str();
   app.add_option("--priority", priority, "SCHED_FIFO priority of the RT loop (0 = none; needs CAP_SYS_NICE)")->capture_default_str();
   app.add_option("--world", world, "world file")->capture_default_str();
+  app.add_option("--max-p99-ms", max_p99_ms, "fail when either phase's p99 latency exceeds this")->capture_default_str();
+  app.add_flag("--json", json, "print the figures as one JSON object on stdout (the table goes to stderr)");
   CLI11_PARSE(app, argc, argv);
-  std::printf("robot latency bench: %.0f s per phase, RT priority %d\n", seconds, priority);
+  FILE* table = json ? stderr : stdout;
+  std::fprintf(table, "robot latency bench: %.0f s per phase, RT priority %d\n", seconds, priority);
   const Phase idle = run_phase(world, seconds, priority, false);
   const Phase loaded = run_phase(world, seconds, priority, true);
-  std::printf("\n%-8s %8s %10s %10s %10s %12s %12s %8s\n", "phase", "scans", "lat p50 ms", "lat p99 ms", "lat max ms",
-              "period p99us", "jitter maxus", "misses");
+  std::fprintf(table, "\n%-8s %8s %10s %10s %10s %12s %12s %8s\n", "phase", "scans", "lat p50 ms", "lat p99 ms", "lat max ms",
+               "period p99us", "jitter maxus", "misses");
   for (const auto* p : {&idle, &loaded}) {
-    std::printf("%-8s %8zu %10.2f %10.2f %10.2f %12.0f %12.0f %8llu\n", p == &idle ? "idle" : "loaded", p->latency_ms.size(),
-                percentile(p->latency_ms, 0.5), percentile(p->latency_ms, 0.99), percentile(p->latency_ms, 1.0),
-                static_cast<double>(p->rt.period_p99_us), static_cast<double>(p->rt.jitter_max_us),
-                static_cast<unsigned long long>(p->rt.misses));
+    std::fprintf(table, "%-8s %8zu %10.2f %10.2f %10.2f %12.0f %12.0f %8llu\n", p == &idle ? "idle" : "loaded",
+                 p->latency_ms.size(), percentile(p->latency_ms, 0.5), percentile(p->latency_ms, 0.99),
+                 percentile(p->latency_ms, 1.0), static_cast<double>(p->rt.period_p99_us),
+                 static_cast<double>(p->rt.jitter_max_us), static_cast<unsigned long long>(p->rt.misses));
   }
-  std::printf("ratio loaded/idle: latency p99 %.2f, jitter max %.2f\n",
-              percentile(loaded.latency_ms, 0.99) / std::max(1e-9, percentile(idle.latency_ms, 0.99)),
-              static_cast<double>(loaded.rt.jitter_max_us) / std::max(1.0, static_cast<double>(idle.rt.jitter_max_us)));
+  const double p99_ratio = percentile(loaded.latency_ms, 0.99) / std::max(1e-9, percentile(idle.latency_ms, 0.99));
+  const double jitter_ratio =
+      static_cast<double>(loaded.rt.jitter_max_us) / std::max(1.0, static_cast<double>(idle.rt.jitter_max_us));
+  std::fprintf(table, "ratio loaded/idle: latency p99 %.2f, jitter max %.2f\n", p99_ratio, jitter_ratio);
+  std::string failure;
   if (idle.latency_ms.size() < 10 || loaded.latency_ms.size() < 10) {
-    std::fprintf(stderr, "too few scans matched (%zu, %zu; unmatched %llu, %llu)\n", idle.latency_ms.size(),
-                 loaded.latency_ms.size(), static_cast<unsigned long long>(idle.unmatched),
-                 static_cast<unsigned long long>(loaded.unmatched));
+    failure = "too few scans matched (" + std::to_string(idle.latency_ms.size()) + ", " +
+              std::to_string(loaded.latency_ms.size()) + ")";
+  } else if (percentile(idle.latency_ms, 0.99) > max_p99_ms || percentile(loaded.latency_ms, 0.99) > max_p99_ms) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "p99 latency %.2f ms idle / %.2f ms loaded exceeds %.2f ms",
+                  percentile(idle.latency_ms, 0.99), percentile(loaded.latency_ms, 0.99), max_p99_ms);
+    failure = buf;
+  }
+  if (json) {
+    const nlohmann::json j = {{"bench", "robot_latency"},
+                              {"seconds_per_phase", seconds},
+                              {"priority", priority},
+                              {"max_p99_ms", max_p99_ms},
+                              {"idle", phase_json(idle)},
+                              {"loaded", phase_json(loaded)},
+                              {"ratio_loaded_idle", {{"latency_p99", p99_ratio}, {"jitter_max", jitter_ratio}}},
+                              {"pass", failure.empty()},
+                              {"failure", failure}};
+    std::printf("%s\n", j.dump(2).c_str());
+  }
+  if (!failure.empty()) {
+    std::fprintf(stderr, "cairn-bench-robot-latency: FAIL: %s\n", failure.c_str());
     return 1;
   }
   return 0;

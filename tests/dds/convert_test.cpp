@@ -84,7 +84,9 @@ TEST(Convert, FeaturesRoundTripAndClamp) {
   EXPECT_FALSE(dds::from_dds(d, &b));
   EXPECT_EQ(b.n_features, msg::kMaxFeatures);
   d.n_features = 1;
-  d.features[0].kind = static_cast<cairn_FeatureKind>(9);
+  const int bad_kind = 9;  // as a hostile writer would send it
+  static_assert(sizeof d.features[0].kind == sizeof bad_kind);
+  std::memcpy(&d.features[0].kind, &bad_kind, sizeof bad_kind);
   EXPECT_FALSE(dds::from_dds(d, &b));
 }
 
@@ -118,7 +120,8 @@ TEST(Convert, CorrectionAndTaskRoundTrip) {
   EXPECT_TRUE(dds::from_dds(dt, &t2));
   EXPECT_TRUE(same_bytes(t, t2));
   dt.n_path = 1000;
-  dt.kind = static_cast<cairn_TaskKind>(42);
+  const int bad_kind = 42;
+  std::memcpy(&dt.kind, &bad_kind, sizeof bad_kind);
   EXPECT_FALSE(dds::from_dds(dt, &t2));
   EXPECT_EQ(t2.n_path, msg::kMaxPath);
   EXPECT_EQ(t2.kind, msg::TaskKind::kStop);
@@ -126,7 +129,7 @@ TEST(Convert, CorrectionAndTaskRoundTrip) {
 
 TEST(Convert, LandmarkPages) {
   std::vector<msg::Landmark> all(300);
-  for (std::size_t i = 0; i < all.size(); ++i) all[i] = {static_cast<std::uint32_t>(i), 1.0 * i, -1.0 * i, {1, 0, 0, 1}};
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = {static_cast<std::uint32_t>(i), static_cast<double>(i), -static_cast<double>(i), {1, 0, 0, 1}};
   auto d = std::make_unique<cairn_FeatureMap>();
   std::size_t seen = 0;
   for (std::size_t first = 0; first < all.size(); first += msg::kMaxLandmarks) {

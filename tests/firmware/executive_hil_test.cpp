@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "firmware/executive/devices.hpp"
 #include "firmware/executive/executive.hpp"
 #include "firmware/executive/path_follower.hpp"
 #include "hil/bench/robot_bench.hpp"
@@ -68,7 +69,9 @@ struct Harness {
     cfg.safety.max_v = 1.0;
     cfg.rt_loop = {};  // tests run unprivileged
     cfg.io_threads = {};
-    exec = std::make_unique<firmware::Executive>(cfg, firmware::ThreadHooks{on_steady, on_finished});
+    auto& clock = MonotonicClock::instance();
+    exec = std::make_unique<firmware::Executive>(cfg, clock, firmware::open_devices(cfg, clock, [] { return false; }),
+                                                 firmware::ThreadHooks{on_steady, on_finished});
     exec->start();
   }
   ~Harness() {
@@ -78,26 +81,26 @@ struct Harness {
   // The non-RT side for one tick: drain outputs (checking order), follow, keep the link.
   void tick(firmware::PathFollower* follower, bool link = true) {
     const Nanos now = MonotonicClock::instance().now();
-    cairn_OdometryIncrement inc;
+    msg::OdometryIncrement inc;
     while (exec->pop_odometry(&inc)) {
-      if (inc.seq != last_odom_seq + 1 || inc.t1_ns < last_t1) ++out_of_order;
+      if (inc.seq != last_odom_seq + 1 || inc.t1 < last_t1) ++out_of_order;
       last_odom_seq = inc.seq;
-      last_t1 = inc.t1_ns;
+      last_t1 = inc.t1;
       ++odometry;
     }
-    static cairn_LaserScan scan;
+    static msg::LaserScan scan;
     while (exec->pop_laser(&scan)) {
       if (scan.seq != last_laser_seq + 1) ++out_of_order;
       last_laser_seq = scan.seq;
       ++lasers;
     }
-    static cairn_FeatureObservations f;
+    static msg::FeatureObservations f;
     while (exec->pop_features(&f)) {
       if (f.seq != last_feature_seq + 1) ++out_of_order;
       last_feature_seq = f.seq;
       const Pose2 local{f.local_pose.x, f.local_pose.y, f.local_pose.theta};
       for (int i = 0; i < f.n_features; ++i) {
-        if (f.features[i].kind != cairn_FEATURE_LANDMARK) continue;
+        if (f.features[i].kind != msg::FeatureKind::kLandmark) continue;
         const Vec2 p = transform_point(start, point_from_observation(local, {f.features[i].range, f.features[i].bearing}));
         double best = 1e9;
         for (const Vec2& pole : world.poles()) best = std::min(best, (pole - p).norm());

@@ -48,11 +48,11 @@ TEST(RobotConfig, ErrorsNameTheKey) {
   EXPECT_NE(error_of(kDevices + "[saftey]\nmax_v = 1\n").find("did you mean 'safety'"), std::string::npos);
 }
 
-cairn_TaskAssignment goto_task(std::uint32_t id, double x, double y) {
-  cairn_TaskAssignment t{};
+msg::TaskAssignment goto_task(std::uint32_t id, double x, double y) {
+  msg::TaskAssignment t{};
   t.robot_id = 1;
   t.task_id = id;
-  t.kind = cairn_TASK_GOTO;
+  t.kind = msg::TaskKind::kGoto;
   t.target_x = x;
   t.target_y = y;
   return t;
@@ -76,9 +76,9 @@ TEST(Navigator, GotoIsFollowedInTheLocalFrameThroughTheCorrection) {
   EXPECT_NEAR(w, 0.0, 1e-6);
   auto nan_task = goto_task(9, std::nan(""), 0);
   EXPECT_NE(nav.on_task(nan_task, local_to_global).find("non-finite"), std::string::npos);
-  cairn_TaskAssignment stop{};
+  msg::TaskAssignment stop{};
   stop.task_id = 10;
-  stop.kind = cairn_TASK_STOP;
+  stop.kind = msg::TaskKind::kStop;
   EXPECT_EQ(nav.on_task(stop, local_to_global), "");
   EXPECT_FALSE(nav.active());
 }

@@ -1,0 +1,169 @@
+#include "firmware/executive/robot_core.hpp"
+
+#include <cmath>
+#include <cstring>
+
+#include "common/log.hpp"
+
+namespace cairn::firmware {
+
+RobotCore::RobotCore(const ExecutiveConfig& cfg)
+    : cfg_(cfg),
+      mapper_(cfg.localmap),
+      odometry_(cfg.geometry, cfg.odometry),
+      safety_(cfg.safety),
+      steps_(std::make_unique<TimedStep[]>(std::max<std::size_t>(cfg.odometry_history, 1))),
+      points_(std::make_unique<Vec2[]>(lms::kMaxBeams)),
+      laser_msg_(std::make_unique<msg::LaserScan>()),
+      feature_msg_(std::make_unique<msg::FeatureObservations>()) {
+  mapper_.reset(Pose2{});
+}
+
+void RobotCore::on_wheels(const WheelReading& ws) {
+  drives_enabled_ = ws.enabled;
+  if (ws.stamp == last_wheel_stamp_) return;
+  const Nanos t0 = last_wheel_stamp_ < 0 ? ws.stamp : last_wheel_stamp_;
+  last_wheel_stamp_ = ws.stamp;
+  const std::size_t cap = history();
+  if (steps_count_ == cap) {  // full: the oldest step joins the folded prefix
+    accumulate(&folded_, steps_[steps_head_].step);
+    steps_head_ = (steps_head_ + 1) % cap;
+    --steps_count_;
+  }
+  steps_[(steps_head_ + steps_count_) % cap] = {t0, ws.stamp, odometry_.update(ws.left, ws.right)};
+  ++steps_count_;
+}
+
+canopen::WheelCommand RobotCore::control(const ControlInputs& c, double dt) {
+  SafetyInputs in;
+  in.now = c.now;
+  in.estop = c.estop;
+  in.drives_enabled = drives_enabled_;
+  in.last_link = c.last_link;
+  in.last_scan = last_scan_;
+  in.last_command = c.command_stamp;
+  in.last_power = c.last_power;
+  in.v = c.v;
+  in.w = c.w;
+  double v = 0, w = 0;
+  const StopReason reason = safety_.evaluate(in, dt, &v, &w);
+  if (reason != stop_ && reason != StopReason::kNone) {
+    CAIRN_LOG_WARN("safety", "stop: {}", stop_reason_text(reason));
+  }
+  stop_ = reason;
+  v_ = v;
+  w_ = w;
+  return canopen::wheel_command(cfg_.geometry, v, w);
+}
+
+Pose2 RobotCore::local_pose() const { return compose(mapper_.pose(), odometry_pending().delta); }
+
+CoreCounters RobotCore::counters() const { return {mapper_.counters().scans, mapper_.counters().matched}; }
+
+OdometryStep RobotCore::odometry_until(Nanos t) {
+  const std::size_t cap = history();
+  OdometryStep out = folded_;
+  folded_ = OdometryStep{};
+  while (steps_count_ > 0 && steps_[steps_head_].t <= t) {
+    accumulate(&out, steps_[steps_head_].step);
+    steps_head_ = (steps_head_ + 1) % cap;
+    --steps_count_;
+  }
+  // A wheel sample that spans t (several merged when the RT loop woke late): take the part
+  // of its arc before t, leave the rest queued.
+  if (steps_count_ > 0) {
+    TimedStep& s = steps_[steps_head_];
+    if (s.t0 < t && s.t > s.t0) {
+      const double f = static_cast<double>(t - s.t0) / static_cast<double>(s.t - s.t0);
+      OdometryStep head, tail;
+      split_step(s.step, f, &head, &tail);
+      accumulate(&out, head);
+      s.step = tail;
+      s.t0 = t;
+    }
+  }
+  return out;
+}
+
+OdometryStep RobotCore::odometry_pending() const {
+  const std::size_t cap = history();
+  OdometryStep out = folded_;
+  for (std::size_t i = 0; i < steps_count_; ++i) accumulate(&out, steps_[(steps_head_ + i) % cap].step);
+  return out;
+}
+
+void RobotCore::on_scan(const lms::LmsScan& scan, Nanos now, RobotOutputs& out) {
+  last_scan_ = now;
+  ++scans_seen_;
+  // Points in the robot frame, the laser's mount applied.
+  std::size_t n = 0;
+  const double min_r = cfg_.localmap.min_range_m, max_r = cfg_.localmap.max_range_m;
+  for (std::size_t i = 0; i < scan.count; ++i) {
+    const double r = scan.range_mm[i] * 1e-3;
+    if (scan.range_mm[i] == 0 || r < min_r || r > max_r) continue;
+    const double a = scan.angle_min + scan.angle_increment * static_cast<double>(i);
+    points_[n++] = transform_point(cfg_.laser_mount, Vec2(r * std::cos(a), r * std::sin(a)));
+  }
+  // Odometry up to the middle of the sweep, where the scan (matched as a rigid body) was
+  // taken on average; motion after it stays for the next scan. Taking all of it made
+  // the pose run ahead of the scan along a corridor, where the match cannot correct it.
+  const Nanos mid_sweep = scan.stamp + static_cast<Nanos>(0.5 * scan.beam_period_s * scan.count * 1e9);
+  const OdometryStep odom = odometry_until(mid_sweep);
+  Mat3 odom_cov = odom.covariance;
+  odom_cov.diagonal().array() += 1e-8;
+  const localmap::LocalMapUpdate u = mapper_.add_scan(std::span<const Vec2>(points_.get(), n), odom.delta, odom_cov);
+
+  // OdometryIncrement: the corrected motion since the previous scan and its covariance.
+  msg::OdometryIncrement inc;
+  inc.robot_id = cfg_.robot_id;
+  inc.seq = ++odom_seq_;
+  inc.t0 = last_odom_t_ ? last_odom_t_ : scan.stamp;
+  inc.t1 = scan.stamp;
+  last_odom_t_ = scan.stamp;
+  inc.delta = u.increment;
+  inc.delta_cov = msg::to_cov(u.covariance);
+  inc.local_pose = u.pose;
+  out.odometry(inc);
+
+  // Every Nth scan to the base station, with its corrected pose.
+  if (scans_seen_ % static_cast<std::uint32_t>(cfg_.scan_publish_every) == 0) {
+    msg::LaserScan& m = *laser_msg_;
+    m.robot_id = cfg_.robot_id;
+    m.seq = ++laser_seq_;
+    m.stamp = scan.stamp;
+    m.angle_min = static_cast<float>(scan.angle_min);
+    m.angle_increment = static_cast<float>(scan.angle_increment);
+    m.beam_period_s = static_cast<float>(scan.beam_period_s);
+    m.n_beams = scan.count;
+    std::memcpy(m.ranges_mm.data(), scan.range_mm.data(), sizeof(std::uint16_t) * scan.count);
+    std::memcpy(m.reflectivity.data(), scan.flags.data(), scan.count);
+    m.pose = compose(u.pose, cfg_.laser_mount);
+    m.pose_cov = msg::to_cov(u.covariance);
+    m.sensor_offset = cfg_.laser_mount;
+    out.laser(m);
+  }
+
+  // Retroreflective features.
+  extract_features(scan, cfg_.laser_mount, cfg_.features, &features_);
+  if (features_.count > 0) {
+    msg::FeatureObservations& f = *feature_msg_;
+    f.robot_id = cfg_.robot_id;
+    f.seq = ++feature_seq_;
+    f.stamp = scan.stamp;
+    f.local_pose = u.pose;
+    f.odom_seq = inc.seq;
+    f.n_features = static_cast<std::uint8_t>(features_.count);
+    for (std::size_t i = 0; i < features_.count; ++i) {
+      const ScanFeature& s = features_.items[i];
+      msg::Feature& o = f.features[i];
+      o.kind = s.robot ? msg::FeatureKind::kRobot : msg::FeatureKind::kLandmark;
+      o.marker_id = -1;
+      o.range = s.range;
+      o.bearing = s.bearing;
+      o.cov = {s.covariance(0, 0), s.covariance(0, 1), s.covariance(0, 1), s.covariance(1, 1)};
+    }
+    out.features(f);
+  }
+}
+
+}  // namespace cairn::firmware
