@@ -1,5 +1,7 @@
 #include "hil/lms2xx/lms_device.hpp"
 
+#include "hil/lms2xx/scan_synth.hpp"
+
 #include <cmath>
 #include <cstring>
 
@@ -188,21 +190,18 @@ std::uint16_t LmsDevice::encode_range(double range_m, bool hit, bool reflective)
 }
 
 void LmsDevice::queue_scan(Nanos now) {
-  const int n = angle_ * 100 / res_ + 1;
-  const double start_deg = angle_ == 180 ? 0.0 : 40.0;  // 0° = right, 90° = ahead (sensor frame -90..+90)
-  std::normal_distribution<double> noise(0.0, cfg_.range_noise_m);
+  const int n = sweep_beams(angle_, res_);
   const Pose2 sensor = pose_(now);
+  std::array<BeamSample, kMaxBeams> beams;
+  synthesize_sweep(*world_, sensor, angle_, res_, cfg_.max_range_m, cfg_.range_noise_m, rng_, beams.data());
   std::uint8_t data[2 + 2 * kMaxBeams];
   const std::uint16_t units = config_.units() & 0x3;
   const std::uint16_t word = static_cast<std::uint16_t>(n | (units << 14));
   data[0] = static_cast<std::uint8_t>(word & 0xFF);
   data[1] = static_cast<std::uint8_t>(word >> 8);
   for (int i = 0; i < n; ++i) {
-    const double deg = start_deg + i * res_ / 100.0;
-    const double a = sensor.theta + (deg - 90.0) * std::numbers::pi / 180.0;
-    const RayHit h = world_->cast(sensor.translation(), a, cfg_.max_range_m);
-    const double r = h.hit ? h.range + noise(rng_) : 0.0;
-    const std::uint16_t v = encode_range(r, h.hit, h.reflective);
+    const BeamSample& b = beams[static_cast<std::size_t>(i)];
+    const std::uint16_t v = encode_range(b.range_m, b.hit, b.reflective);
     data[2 + 2 * i] = static_cast<std::uint8_t>(v & 0xFF);
     data[3 + 2 * i] = static_cast<std::uint8_t>(v >> 8);
   }
