@@ -100,9 +100,8 @@ void FleetSim::deliver(Nanos now) {
   }
 }
 
-void FleetSim::step_robots(std::size_t worker) {
-  const std::size_t workers = static_cast<std::size_t>(std::max(1, cfg_.threads));
-  for (std::size_t i = worker; i < robots_.size(); i += workers) {
+void FleetSim::step_robots() {
+  for (std::size_t i; (i = next_robot_.fetch_add(1, std::memory_order_relaxed)) < robots_.size();) {
     if (steps_ > 0) robots_[i]->physics(now_ - cfg_.physics_step, cfg_.physics_step);
     outboxes_[i]->now = now_;
     robots_[i]->tick(now_, *outboxes_[i]);
@@ -144,21 +143,22 @@ void FleetSim::run(const std::function<void(double)>& progress) {
     }
     ++steps_;
     now_ += cfg_.physics_step;
+    next_robot_.store(0, std::memory_order_relaxed);  // the barrier orders it before the next step
     done = now_ > end;
   };
   std::barrier sync(static_cast<std::ptrdiff_t>(workers), between_steps);
   std::vector<std::thread> threads;
   for (std::size_t w = 1; w < workers; ++w) {
-    threads.emplace_back([&, w] {
+    threads.emplace_back([&] {
       while (true) {
-        step_robots(w);
+        step_robots();
         sync.arrive_and_wait();
         if (done) break;
       }
     });
   }
   while (true) {
-    step_robots(0);
+    step_robots();
     sync.arrive_and_wait();
     if (done) break;
   }

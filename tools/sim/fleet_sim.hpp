@@ -1,13 +1,14 @@
 // cairn-sim's fleet: N SimRobots and the production base pipeline (fusion) in one
 // process, on one simulated clock, stepped in lockstep at the physics period. Each robot
 // has its own copy of the world, as on the HIL bench today (robots that see and bump into
-// each other come with the shared world of the central-mapper work). Robots step in
-// parallel on worker threads, each robot always on the same thread with its own random
-// stream; the main thread then takes their messages in robot order, so the run does not
-// depend on thread timing: the same seed gives the same bytes. Messages between robots
-// and base cross a simulated link with a configured latency and loss.
+// each other come with the shared world of the central-mapper work). In each step the
+// worker threads take the robots one by one; a robot has its own world and random stream,
+// so which worker steps it does not matter. The main thread then takes their messages in
+// robot order: the run does not depend on thread timing, the same seed gives the same
+// bytes. Messages between robots and base cross a simulated link with latency and loss.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -75,7 +76,7 @@ class FleetSim {
  private:
   struct Outbox;
   void deliver(Nanos now);
-  void step_robots(std::size_t worker);
+  void step_robots();
 
   FleetSimConfig cfg_;
   std::vector<std::unique_ptr<hil::World>> worlds_;  // one per robot
@@ -83,6 +84,7 @@ class FleetSim {
   std::vector<std::unique_ptr<Outbox>> outboxes_;  // one per robot
   std::unique_ptr<base::Fusion> fusion_;
   std::vector<RobotSample> samples_;
+  std::atomic<std::size_t> next_robot_{0};  // the next robot a worker takes in this step
   std::uint64_t steps_ = 0;
   Nanos now_ = 0;
 };

@@ -34,7 +34,9 @@ SimRobot::SimRobot(const SimRobotConfig& cfg, hil::World* world)
   const int rotations = res_centideg_ == 100 ? 1 : (res_centideg_ == 50 ? 2 : 4);  // interlaced sweeps
   sweep_period_ = rotations * kNanosPerSecond / 75;
   sweep_time_ = static_cast<Nanos>(angle_deg_ / 360.0 / 75.0 * 1e9);
-  next_sweep_ = sweep_period_;
+  // Lasers are not synchronised: each robot's sweeps start at its own phase (this also
+  // spreads the scan-matching work of a step over the worker threads).
+  next_sweep_ = sweep_period_ + ((cfg.id - 1) % 3) * sweep_period_ / 3;
   beams_.resize(static_cast<std::size_t>(hil::sweep_beams(angle_deg_, res_centideg_)));
   for (int i = 0; i < 4; ++i) free_scans_.push_back(std::make_unique<lms::LmsScan>());
   body_->set_wheel_scale(cfg.wheel_scale_left, cfg.wheel_scale_right);
