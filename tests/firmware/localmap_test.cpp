@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <numbers>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "firmware/localmap/local_mapper.hpp"
@@ -93,6 +94,44 @@ TEST(LikelihoodGrid, RejectsBadConfiguration) {
   g = {};
   g.sigma_m = 0.5;  // 30 cells of kernel
   EXPECT_NE(validate(g), nullptr);
+}
+
+// A point on a cell centre stamps exactly the cells within `radius` of it along a row.
+int stamped_radius(const GridConfig& g) {
+  LikelihoodGrid grid(g);
+  grid.reset(Vec2::Zero());
+  const int c = g.size_cells / 2;
+  grid.add_point(grid.origin() + Vec2::Constant((c + 0.5) * g.resolution_m));
+  grid.finish();
+  int r = 0;
+  while (c + r + 1 < g.size_cells && grid.cell(c + r + 1, c) > 0.0f) ++r;
+  return r;
+}
+
+TEST(LikelihoodGrid, KernelRadiusIsThreeSigmaRoundedUp) {
+  // The default: 3 × 5 cm / 5 cm = 3 cells (49 taps), not 4 (81) from the ratio's rounding error.
+  EXPECT_EQ(stamped_radius(GridConfig{}), 3);
+  EXPECT_EQ(kernel_radius_cells(GridConfig{}), 3);
+  EXPECT_EQ(LikelihoodGrid(GridConfig{}).kernel_radius(), 3);
+  GridConfig g;
+  g.sigma_m = 0.06;  // 3.6 cells: up to 4
+  EXPECT_EQ(kernel_radius_cells(g), 4);
+  EXPECT_EQ(stamped_radius(g), 4);
+}
+
+TEST(LikelihoodGrid, LargestKernelValidationAcceptsFitsItsBuffers) {
+  // 3 × 0.056 / 0.007 is 24 cells (the largest accepted); the grid once made it 25 and
+  // wrote past a 49-element stack array (ASan).
+  GridConfig g;
+  g.resolution_m = 0.007;
+  g.sigma_m = 0.056;
+  g.size_cells = 128;
+  ASSERT_EQ(validate(g), nullptr);
+  EXPECT_EQ(kernel_radius_cells(g), LikelihoodGrid::kMaxRadius);
+  EXPECT_EQ(stamped_radius(g), LikelihoodGrid::kMaxRadius);
+  g.sigma_m = 0.0561;  // 24.04 cells: refused, with the reason
+  ASSERT_NE(validate(g), nullptr);
+  EXPECT_NE(std::string(validate(g)).find("24 cells"), std::string::npos) << validate(g);
 }
 
 TEST(ScanMatcher, RecoversAKnownOffsetFromAPerturbedGuess) {
