@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "firmware/localmap/local_mapper.hpp"
+#include "firmware/localmap/work_estimate.hpp"
 #ifndef CAIRN_SANITIZED
 #include "tests/support/alloc_counter.hpp"
 #endif
@@ -136,6 +137,61 @@ TEST(LikelihoodGrid, LargestKernelValidationAcceptsFitsItsBuffers) {
   g.sigma_m = 0.0561;  // 24.04 cells: refused, with the reason
   ASSERT_NE(validate(g), nullptr);
   EXPECT_NE(std::string(validate(g)).find("24 cells"), std::string::npos) << validate(g);
+}
+
+TEST(WorkEstimate, TheDefaultConfigurationFitsWithRoomToSpare) {
+  const LocalMapConfig c;
+  const WorkEstimate w = estimate_work(c, 361);
+  EXPECT_EQ(w.kernel_taps, 49);
+  EXPECT_GT(w.match_ms, 0.2);
+  EXPECT_LT(w.match_ms, 2.5);  // half the 5 ms budget of a 10 ms period
+  EXPECT_LT(w.rebuild_ms, 20.0);
+  WorkBudget b;
+  b.keyframe_interval_s = min_keyframe_interval_s(c, 0.8, 1.5);
+  EXPECT_NEAR(b.keyframe_interval_s, 0.17 / 1.5, 1e-12);  // turning makes keyframes fastest
+  EXPECT_EQ(check_budget(c, 361, b), "");
+}
+
+TEST(WorkEstimate, RefusesMatchingThatDoesNotFitTheRtPeriodWithTheNumbers) {
+  // 1 cm cells: validate() accepts them, but the ±0.4 m, ±20° search is 107 angles × 21² shifts at 4 cm.
+  LocalMapConfig c;
+  c.grid.resolution_m = 0.01;
+  ASSERT_EQ(validate(c), nullptr);
+  const WorkEstimate w = estimate_work(c, 361);
+  EXPECT_GT(w.match_ms, 10.0);
+  EXPECT_LT(w.match_ms, 40.0);
+  const std::string why = check_budget(c, 361, WorkBudget{});
+  EXPECT_NE(why.find("worst-case per-scan matching"), std::string::npos) << why;
+  EXPECT_NE(why.find("exceeds the budget 5.0 ms (50 % of the 10.0 ms RT period)"), std::string::npos) << why;
+  char ms[32];
+  std::snprintf(ms, sizeof ms, "%.1f ms", w.match_ms);
+  EXPECT_NE(why.find(ms), std::string::npos) << why;
+  EXPECT_NE(why.find(" x 361 points"), std::string::npos) << why;
+}
+
+TEST(WorkEstimate, RefusesARebuildThatDoesNotFitBetweenKeyframes) {
+  LocalMapConfig c;
+  c.keyframes = 100;  // ten times the stamps: ~70 ms against 57 ms (half of 113 ms)
+  WorkBudget b;
+  b.keyframe_interval_s = min_keyframe_interval_s(c, 0.8, 1.5);
+  const std::string why = check_budget(c, 361, b);
+  EXPECT_NE(why.find("worst-case keyframe rebuild"), std::string::npos) << why;
+  EXPECT_NE(why.find("x 49 kernel taps; 512x512 cells"), std::string::npos) << why;
+  EXPECT_NE(why.find("between keyframes"), std::string::npos) << why;
+  c.keyframes = 10;
+  EXPECT_EQ(check_budget(c, 361, b), "");
+}
+
+TEST(WorkEstimate, CountsWhatTheConfigurationBounds) {
+  LocalMapConfig c;
+  const WorkEstimate few = estimate_work(c, 181), many = estimate_work(c, 2000);
+  EXPECT_EQ(many.points, c.max_points);  // the searches and keyframes keep max_points
+  EXPECT_NEAR(many.point_evals / few.point_evals, 2000.0 / 181, 1e-9);  // refinement uses them all
+  EXPECT_EQ(few.copy_ms, 0.0);  // inline: no request copy
+  c.async_rebuild = true;
+  EXPECT_GT(estimate_work(c, 181).copy_ms, 0.0);
+  c.surface_gap_m = 0;  // no gap filling: a stamp per point
+  EXPECT_EQ(estimate_work(c, 181).stamps, 10 * 181);
 }
 
 TEST(ScanMatcher, RecoversAKnownOffsetFromAPerturbedGuess) {
