@@ -171,7 +171,7 @@ TEST(WorkEstimate, RefusesMatchingThatDoesNotFitTheRtPeriodWithTheNumbers) {
 
 TEST(WorkEstimate, RefusesARebuildThatDoesNotFitBetweenKeyframes) {
   LocalMapConfig c;
-  c.keyframes = 100;  // ten times the stamps: ~70 ms against 57 ms (half of 113 ms)
+  c.keyframes = 100;  // ten times the stamps: ~80 ms against 57 ms (half of 113 ms)
   WorkBudget b;
   b.keyframe_interval_s = min_keyframe_interval_s(c, 0.8, 1.5);
   const std::string why = check_budget(c, 361, b);
