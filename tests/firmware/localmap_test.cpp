@@ -329,7 +329,8 @@ void expect_same_poses(const LoopRun& a, const LoopRun& b) {
 // before matching, as the inline rebuild had it, so the poses are the same to the bit.
 TEST(LocalMapperAsync, WorkerBetweenScansGivesTheInlinePoses) {
   const LoopRun inline_run = drive_loop({});
-  std::uint64_t built = 0, worker_allocations = 0;
+  std::uint64_t built = 0;
+  [[maybe_unused]] std::uint64_t worker_allocations = 0;
   const LoopRun async_run = drive_loop({.async = true, .count_allocations = true,
                                         .after_scan = [&](LocalMapper& m, const LocalMapUpdate& u) {
                                           EXPECT_EQ(m.rebuild_requested(), u.keyframe);
