@@ -4,6 +4,7 @@
 
 #include "common/config.hpp"
 #include "drivers/modbus/power_config.hpp"
+#include "firmware/localmap/work_estimate.hpp"
 
 namespace cairn::firmware {
 namespace {
@@ -83,6 +84,18 @@ void read_mapping(const ConfigSection& m, ExecutiveConfig* e) {
   if (const char* why = localmap::validate(e->localmap)) m.fail("keyframes", std::string("local map: ") + why);
 }
 
+// The local map's worst-case work must fit: matching in half the RT period, the keyframe
+// rebuild (the rebuild worker's) in half the shortest time between keyframes at the
+// safety limits. The model: firmware/localmap/work_estimate.hpp, docs/localmap.md.
+void check_localmap_budget(const ConfigSection& root, const ExecutiveConfig& e) {
+  const int beams = e.lms.angle_deg * 100 / e.lms.resolution_centideg + 1;
+  localmap::WorkBudget b;
+  b.rt_period_s = nanos_to_seconds(e.period);
+  b.keyframe_interval_s = localmap::min_keyframe_interval_s(e.localmap, e.safety.max_v, e.safety.max_w);
+  const std::string why = localmap::check_budget(e.localmap, beams, b);
+  if (!why.empty()) root.fail("mapping", "local map: " + why);
+}
+
 void read_motion(const ConfigSection& m, MotionConfig* motion) {
   motion->follower.speed = m.number_or("speed", motion->follower.speed, {0.0, 5.0});
   motion->follower.loop = m.boolean_or("loop", motion->follower.loop);
@@ -114,6 +127,7 @@ RobotConfig read(const ConfigDocument& doc) {
   if (const auto s = root.optional_section("safety")) read_safety(*s, &c.executive.safety);
   if (const auto m = root.optional_section("mapping")) read_mapping(*m, &c.executive);
   if (const auto m = root.optional_section("motion")) read_motion(*m, &c.motion);
+  if (c.has_devices) check_localmap_budget(root, c.executive);
   c.motion.follower.max_w = std::min(c.motion.follower.max_w, c.executive.safety.max_w);
   doc.finish();
   c.executive.robot_id = c.id;

@@ -1,12 +1,16 @@
 #include "firmware/localmap/likelihood_grid.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 
 namespace cairn::localmap {
+
+int kernel_radius_cells(const GridConfig& c) {
+  const double r = 3.0 * c.sigma_m / c.resolution_m;
+  return static_cast<int>(std::ceil(r - 1e-9));
+}
 
 const char* validate(const GridConfig& c) {
   if (!(c.resolution_m > 0.001 && c.resolution_m <= 1.0)) return "resolution_m must be in (0.001, 1] m";
@@ -14,7 +18,7 @@ const char* validate(const GridConfig& c) {
   if (!(c.sigma_m > 0 && c.sigma_m <= 1.0)) return "sigma_m must be in (0, 1] m";
   if (c.coarse_factor < 2 || c.coarse_factor > 16) return "coarse_factor must be in [2, 16]";
   if (c.size_cells % c.coarse_factor != 0) return "size_cells must be a multiple of coarse_factor";
-  if (3.0 * c.sigma_m / c.resolution_m > LikelihoodGrid::kMaxRadius) return "sigma_m must be at most 8 cells";
+  if (kernel_radius_cells(c) > LikelihoodGrid::kMaxRadius) return "sigma_m must be at most 8 cells (kernel radius 3 sigma <= 24 cells)";
   return nullptr;
 }
 
@@ -24,7 +28,10 @@ LikelihoodGrid::LikelihoodGrid(const GridConfig& cfg) : cfg_(cfg) {
   nc_ = n_ / cfg.coarse_factor;
   inv_res_ = 1.0 / cfg.resolution_m;
   inv_two_sigma2_ = 1.0 / (2.0 * cfg.sigma_m * cfg.sigma_m);
-  radius_ = static_cast<int>(std::ceil(3.0 * cfg.sigma_m * inv_res_));
+  radius_ = kernel_radius_cells(cfg);
+  const auto taps = static_cast<std::size_t>(2 * radius_ + 1);
+  wx_ = std::make_unique<float[]>(taps);
+  wy_ = std::make_unique<float[]>(taps);
   const auto nn = static_cast<std::size_t>(n_);
   const auto nc = static_cast<std::size_t>(nc_);
   fine_ = std::make_unique<float[]>(nn * nn);
@@ -68,13 +75,15 @@ void LikelihoodGrid::add_point(const Vec2& p) {
   y_hi_ = std::max(y_hi_, y1);
   // The Gaussian is separable: exp(-(dx²+dy²)k) = exp(-dx²k)·exp(-dy²k).
   const double k = cfg_.resolution_m * cfg_.resolution_m * inv_two_sigma2_;
-  std::array<float, 2 * kMaxRadius + 1> wx{}, wy{};
-  for (int x = x0; x <= x1; ++x) wx[static_cast<std::size_t>(x - x0)] = static_cast<float>(std::exp(-(x - gx) * (x - gx) * k));
-  for (int y = y0; y <= y1; ++y) wy[static_cast<std::size_t>(y - y0)] = static_cast<float>(std::exp(-(y - gy) * (y - gy) * k));
+  // x1 - x0 <= 2 * radius_, so the weights fit the buffers sized from the same radius.
+  float* wx = wx_.get();
+  float* wy = wy_.get();
+  for (int x = x0; x <= x1; ++x) wx[x - x0] = static_cast<float>(std::exp(-(x - gx) * (x - gx) * k));
+  for (int y = y0; y <= y1; ++y) wy[y - y0] = static_cast<float>(std::exp(-(y - gy) * (y - gy) * k));
   for (int y = y0; y <= y1; ++y) {
     float* row = fine_.get() + static_cast<std::size_t>(y) * static_cast<std::size_t>(n_);
-    const float vy = wy[static_cast<std::size_t>(y - y0)];
-    for (int x = x0; x <= x1; ++x) row[x] = std::max(row[x], vy * wx[static_cast<std::size_t>(x - x0)]);
+    const float vy = wy[y - y0];
+    for (int x = x0; x <= x1; ++x) row[x] = std::max(row[x], vy * wx[x - x0]);
   }
 }
 

@@ -21,12 +21,18 @@ struct GridConfig {
   int coarse_factor = 4;       // coarse cell = coarse_factor × fine cell
 };
 
+/// The Gaussian kernel's radius in cells: 3 sigma, rounded up. The one formula for both
+/// validate() and the grid (they disagreed once). A ratio within 1e-9 of a whole number
+/// counts as that number: 3 × 0.05 / 0.05 is 3.0000000000000004 in doubles, which a plain
+/// ceil made 4 cells (81 taps instead of 49).
+int kernel_radius_cells(const GridConfig& c);
+
 /// Checks a grid configuration; returns nullptr or what is wrong.
 const char* validate(const GridConfig& c);
 
 class LikelihoodGrid {
  public:
-  static constexpr int kMaxRadius = 24;  // kernel radius in cells (3 sigma)
+  static constexpr int kMaxRadius = 24;  // largest kernel_radius_cells() validate() accepts
 
   explicit LikelihoodGrid(const GridConfig& cfg);
 
@@ -43,6 +49,7 @@ class LikelihoodGrid {
   const GridConfig& config() const { return cfg_; }
   int size() const { return n_; }
   int coarse_size() const { return nc_; }
+  int kernel_radius() const { return radius_; }  // kernel_radius_cells(config())
   Vec2 origin() const { return origin_; }  // corner of cell (0, 0)
   Vec2 centre() const { return origin_ + Vec2::Constant(0.5 * n_ * cfg_.resolution_m); }
   std::uint64_t points_outside() const { return outside_; }
@@ -71,6 +78,7 @@ class LikelihoodGrid {
   double inv_res_ = 0, inv_two_sigma2_ = 0;
   Vec2 origin_ = Vec2::Zero();
   std::unique_ptr<float[]> fine_, coarse_;
+  std::unique_ptr<float[]> wx_, wy_;  // add_point's separable kernel weights, 2 × radius + 1 each
   // Cells touched since the last reset (inclusive bounds): reset and finish work only there.
   int x_lo_ = 0, x_hi_ = -1, y_lo_ = 0, y_hi_ = -1;
   std::uint64_t outside_ = 0, added_ = 0;

@@ -1,6 +1,7 @@
 #include "firmware/localmap/local_mapper.hpp"
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -23,16 +24,30 @@ LocalMapConfig checked(const LocalMapConfig& c) {
   if (const char* e = validate(c)) throw std::invalid_argument(std::string("local map: ") + e);
   return c;
 }
+
+// The field around `centre` from `used` keyframes stored `stride` points apart: the one
+// build both the inline and the worker's rebuild run, so they give the same field.
+void build_field(LikelihoodGrid* grid, const Vec2& centre, const Vec2* points, const std::size_t* counts,
+                 std::size_t used, std::size_t stride, double surface_gap) {
+  grid->reset(centre);
+  for (std::size_t k = 0; k < used; ++k) grid->add_surface(std::span<const Vec2>(points + k * stride, counts[k]), surface_gap);
+  grid->finish();
+}
 }  // namespace
 
 LocalMapper::LocalMapper(const LocalMapConfig& cfg)
     : cfg_(checked(cfg)),
-      grid_(cfg.grid),
+      current_(std::make_unique<LikelihoodGrid>(cfg.grid)),
       matcher_(cfg.match, static_cast<std::size_t>(cfg.max_points)),
       ring_(static_cast<std::size_t>(cfg.keyframes) * static_cast<std::size_t>(cfg.max_points)),
       ring_count_(static_cast<std::size_t>(cfg.keyframes)) {
   for (int i = 0; i < cfg.keyframes; ++i) (void)ring_count_.push_back(0);
   for (std::size_t i = 0; i < ring_.capacity(); ++i) (void)ring_.push_back(Vec2::Zero());
+  if (cfg.async_rebuild) {
+    spare_ = std::make_unique<LikelihoodGrid>(cfg.grid);
+    request_points_ = std::make_unique<Vec2[]>(ring_.capacity());
+    request_count_ = std::make_unique<std::size_t[]>(static_cast<std::size_t>(cfg.keyframes));
+  }
 }
 
 void LocalMapper::reset(const Pose2& pose) {
@@ -40,7 +55,14 @@ void LocalMapper::reset(const Pose2& pose) {
   last_keyframe_ = pose;
   has_map_ = false;
   ring_next_ = ring_used_ = 0;
-  grid_.reset(pose.translation());
+  current_->reset(pose.translation());
+  // A request not claimed yet is dropped, a finished one too; one being built is dropped when ready.
+  RebuildState s = RebuildState::kRequested;
+  if (!state_.compare_exchange_strong(s, RebuildState::kIdle, std::memory_order_acquire)) {
+    if (s == RebuildState::kReady) state_.store(RebuildState::kIdle, std::memory_order_release);
+    discard_ready_ = s == RebuildState::kBuilding;
+  }
+  rebuild_again_ = false;
 }
 
 void LocalMapper::add_keyframe(std::span<const Vec2> points) {
@@ -58,22 +80,70 @@ void LocalMapper::add_keyframe(std::span<const Vec2> points) {
   if (ring_used_ < static_cast<std::size_t>(cfg_.keyframes)) ++ring_used_;
   last_keyframe_ = pose_;
   ++counters_.keyframes;
-  rebuild();
+  if (cfg_.async_rebuild) {
+    request_rebuild();
+    return;
+  }
+  build_field(current_.get(), last_keyframe_.translation(), &ring_[0], &ring_count_[0], ring_used_,
+              static_cast<std::size_t>(cfg_.max_points), cfg_.surface_gap_m);
+  ++counters_.rebuilds;
   has_map_ = true;
 }
 
-void LocalMapper::rebuild() {
-  grid_.reset(pose_.translation());
-  for (std::size_t k = 0; k < ring_used_; ++k) {
-    const std::size_t base = k * static_cast<std::size_t>(cfg_.max_points);
-    grid_.add_surface(std::span<const Vec2>(&ring_[base], ring_count_[k]), cfg_.surface_gap_m);
+void LocalMapper::request_rebuild() {
+  RebuildState s = state_.load(std::memory_order_acquire);
+  // A request the worker has not claimed yet is replaced by this newer one.
+  if (s == RebuildState::kRequested &&
+      state_.compare_exchange_strong(s, RebuildState::kIdle, std::memory_order_acquire)) {
+    s = RebuildState::kIdle;
   }
-  grid_.finish();
-  ++counters_.rebuilds;
+  if (s != RebuildState::kIdle) {  // building or ready: ask again after the swap
+    rebuild_again_ = true;
+    ++counters_.rebuilds_deferred;
+    return;
+  }
+  const auto stride = static_cast<std::size_t>(cfg_.max_points);
+  for (std::size_t k = 0; k < ring_used_; ++k) {
+    std::copy_n(&ring_[k * stride], ring_count_[k], request_points_.get() + k * stride);
+    request_count_[k] = ring_count_[k];
+  }
+  request_used_ = ring_used_;
+  request_centre_ = last_keyframe_.translation();
+  state_.store(RebuildState::kRequested, std::memory_order_release);
+}
+
+bool LocalMapper::build_pending() {
+  RebuildState s = RebuildState::kRequested;
+  if (!state_.compare_exchange_strong(s, RebuildState::kBuilding, std::memory_order_acquire,
+                                      std::memory_order_relaxed)) {
+    return false;
+  }
+  build_field(spare_.get(), request_centre_, request_points_.get(), request_count_.get(), request_used_,
+              static_cast<std::size_t>(cfg_.max_points), cfg_.surface_gap_m);
+  state_.store(RebuildState::kReady, std::memory_order_release);
+  return true;
+}
+
+bool LocalMapper::swap_if_ready() {
+  if (state_.load(std::memory_order_acquire) != RebuildState::kReady) return false;
+  const bool use = !discard_ready_;
+  if (use) {
+    std::swap(current_, spare_);
+    has_map_ = true;
+    ++counters_.rebuilds;
+  }
+  discard_ready_ = false;
+  state_.store(RebuildState::kIdle, std::memory_order_release);
+  if (rebuild_again_) {  // idle now, so this request goes out
+    rebuild_again_ = false;
+    request_rebuild();
+  }
+  return use;
 }
 
 LocalMapUpdate LocalMapper::add_scan(std::span<const Vec2> points, const Pose2& odom_delta, const Mat3& odom_cov) {
   ++counters_.scans;
+  swap_if_ready();
   LocalMapUpdate u;
   const Pose2 previous = pose_;
   const Pose2 guess = compose(pose_, odom_delta);
@@ -87,7 +157,7 @@ LocalMapUpdate LocalMapper::add_scan(std::span<const Vec2> points, const Pose2& 
   const Mat3 odom_local = cfg_.odometry_inflation * (rot * odom_cov * rot.transpose());
   u.covariance = odom_cov;
   if (has_map_) {
-    u.match = matcher_.match(grid_, points, guess);
+    u.match = matcher_.match(*current_, points, guess);
     if (u.match.ok) {
       // Fuse: guess (odometry) and match as two measurements of the same pose.
       const Mat3 s = odom_local + u.match.covariance;
@@ -109,7 +179,7 @@ LocalMapUpdate LocalMapper::add_scan(std::span<const Vec2> points, const Pose2& 
   u.pose = pose_;
   u.increment = between(previous, pose_);
   const Pose2 since = between(last_keyframe_, pose_);
-  if (!has_map_ || std::hypot(since.x, since.y) >= cfg_.keyframe_distance_m ||
+  if (ring_used_ == 0 || std::hypot(since.x, since.y) >= cfg_.keyframe_distance_m ||
       std::abs(since.theta) >= cfg_.keyframe_angle_rad) {
     add_keyframe(points);
     u.keyframe = true;

@@ -21,6 +21,19 @@ const char* validate(const MatchConfig& c) {
   return nullptr;
 }
 
+SearchShape search_shape(const GridConfig& g, const MatchConfig& m) {
+  SearchShape s;
+  const double r2 = 2 * m.step_range_m * m.step_range_m;
+  const double res_c = g.resolution_m * g.coarse_factor;
+  s.coarse_step = std::acos(std::clamp(1.0 - res_c * res_c / r2, -1.0, 1.0));
+  s.coarse_angles = static_cast<int>(std::ceil(m.window_theta_rad / s.coarse_step));
+  s.coarse_shifts = static_cast<int>(std::ceil(m.window_xy_m / res_c));
+  s.fine_step = std::acos(std::clamp(1.0 - g.resolution_m * g.resolution_m / r2, -1.0, 1.0));
+  s.fine_angles = static_cast<int>(std::ceil(0.5 * s.coarse_step / s.fine_step));
+  s.fine_shifts = g.coarse_factor / 2;
+  return s;
+}
+
 ScanMatcher::ScanMatcher(const MatchConfig& cfg, std::size_t max_points)
     : cfg_(cfg), sparse_(max_points), cell_x_(std::make_unique<int[]>(max_points)),
       cell_y_(std::make_unique<int[]>(max_points)) {
@@ -54,11 +67,11 @@ void ScanMatcher::index_points(double cs, double sn, const Vec2& offset, double 
 }
 
 ScanMatcher::Candidate ScanMatcher::search_fine(const LikelihoodGrid& grid, const Candidate& c,
-                                                double coarse_step) {
+                                                const SearchShape& shape) {
   const double res = grid.config().resolution_m;
-  const double fine_step = std::acos(std::clamp(1.0 - res * res / (2 * cfg_.step_range_m * cfg_.step_range_m), -1.0, 1.0));
-  const int na = static_cast<int>(std::ceil(0.5 * coarse_step / fine_step));
-  const int half = grid.config().coarse_factor / 2;
+  const double fine_step = shape.fine_step;
+  const int na = shape.fine_angles;
+  const int half = shape.fine_shifts;
   const Vec2 origin = grid.origin();
   Candidate best = c;
   best.score = -1;
@@ -151,10 +164,10 @@ MatchResult ScanMatcher::match(const LikelihoodGrid& grid, std::span<const Vec2>
 
   // Coarse correlative search: angles so a point at step_range_m moves one coarse cell.
   const double res_c = grid.config().resolution_m * grid.config().coarse_factor;
-  const double coarse_step =
-      std::acos(std::clamp(1.0 - res_c * res_c / (2 * cfg_.step_range_m * cfg_.step_range_m), -1.0, 1.0));
-  const int na = static_cast<int>(std::ceil(cfg_.window_theta_rad / coarse_step));
-  const int nt = static_cast<int>(std::ceil(cfg_.window_xy_m / res_c));
+  const SearchShape shape = search_shape(grid.config(), cfg_);
+  const double coarse_step = shape.coarse_step;
+  const int na = shape.coarse_angles;
+  const int nt = shape.coarse_shifts;
   const Vec2 origin = grid.origin();
   kept_ = 0;
   const std::size_t n = sparse_.size();
@@ -175,7 +188,7 @@ MatchResult ScanMatcher::match(const LikelihoodGrid& grid, std::span<const Vec2>
 
   Candidate best;
   for (int k = 0; k < kept_; ++k) {
-    const Candidate f = search_fine(grid, best_[static_cast<std::size_t>(k)], coarse_step);
+    const Candidate f = search_fine(grid, best_[static_cast<std::size_t>(k)], shape);
     if (f.score > best.score) best = f;
   }
 

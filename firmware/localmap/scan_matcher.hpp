@@ -33,6 +33,18 @@ struct MatchConfig {
 
 const char* validate(const MatchConfig& c);
 
+/// The correlative search's extent: the one formula match() searches with and the work
+/// estimate (work_estimate.hpp) counts with.
+struct SearchShape {
+  double coarse_step = 0;  // rad: a point step_range_m away moves one coarse cell
+  int coarse_angles = 0;   // ± coarse steps around the guess
+  int coarse_shifts = 0;   // ± coarse cells around the guess, in x and in y
+  double fine_step = 0;    // rad: a point step_range_m away moves one fine cell
+  int fine_angles = 0;     // ± fine steps around a coarse candidate
+  int fine_shifts = 0;     // ± fine cells around a coarse candidate (half a coarse cell)
+};
+SearchShape search_shape(const GridConfig& g, const MatchConfig& m);
+
 struct MatchResult {
   Pose2 pose;
   Mat3 covariance = Mat3::Identity();
@@ -58,7 +70,7 @@ class ScanMatcher {
               MatchResult* out) const;
   double log_likelihood(const LikelihoodGrid& grid, std::span<const Vec2> points, const Pose2& pose) const;
   void index_points(double cs, double sn, const Vec2& offset, double cell);
-  Candidate search_fine(const LikelihoodGrid& grid, const Candidate& c, double coarse_step);
+  Candidate search_fine(const LikelihoodGrid& grid, const Candidate& c, const SearchShape& shape);
   Pose2 refine(const LikelihoodGrid& grid, std::span<const Vec2> points, const Pose2& start, double* cost,
                int* iterations) const;
 

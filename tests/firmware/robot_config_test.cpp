@@ -48,6 +48,21 @@ TEST(RobotConfig, ErrorsNameTheKey) {
   EXPECT_NE(error_of(kDevices + "[saftey]\nmax_v = 1\n").find("did you mean 'safety'"), std::string::npos);
 }
 
+TEST(RobotConfig, RefusesALocalMapWhoseWorkDoesNotFitTheRtPeriod) {
+  // 1 cm cells passed the local map's own validation; the search alone is ~20 ms a scan.
+  const std::string why = error_of(kDevices + "[mapping]\ngrid_resolution_m = 0.01\n");
+  EXPECT_NE(why.find("mapping: local map: worst-case per-scan matching"), std::string::npos) << why;
+  EXPECT_NE(why.find("exceeds the budget 5.0 ms (50 % of the 10.0 ms RT period)"), std::string::npos) << why;
+  // The default map fits even a 5 ms period; a 1 ms one it does not.
+  EXPECT_EQ(error_of(kDevices + "[rt]\nperiod_s = 0.005\n"), "");
+  EXPECT_NE(error_of(kDevices + "[rt]\nperiod_s = 0.001\n").find("of the 1.0 ms RT period"), std::string::npos);
+  // Keyframes faster than the rebuild: 100 keyframes of a 0.5° scan turning at 5 rad/s.
+  EXPECT_NE(error_of(kDevices + "[safety]\nmax_w = 5\n[mapping]\nkeyframes = 100\n").find("keyframe rebuild"),
+            std::string::npos);
+  // Status-only robots run no executive: nothing to check.
+  EXPECT_EQ(error_of("[robot]\nid = 3\n[rt]\nperiod_s = 0.001\n"), "");
+}
+
 msg::TaskAssignment goto_task(std::uint32_t id, double x, double y) {
   msg::TaskAssignment t{};
   t.robot_id = 1;
