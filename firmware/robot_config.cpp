@@ -59,6 +59,7 @@ void read_rt(const ConfigSection& r, RobotConfig* c) {
   e.master.sync_period = e.period;  // the drives are commanded once per RT cycle
   e.rt_loop.priority = static_cast<int>(r.integer_or("priority", e.rt_loop.priority, {0, 99}));
   e.io_threads.priority = static_cast<int>(r.integer_or("io_priority", e.io_threads.priority, {0, 99}));
+  e.map_worker.priority = static_cast<int>(r.integer_or("map_worker_priority", e.map_worker.priority, {0, 99}));
   e.rt_loop.cpu = static_cast<int>(r.integer_or("cpu", e.rt_loop.cpu, {-1, 1023}));
   e.rt_loop.lock_memory = r.boolean_or("lock_memory", e.rt_loop.lock_memory);
   c->bridge_period = seconds_key(r, "bridge_period_s", c->bridge_period, {0.0005, 0.1});

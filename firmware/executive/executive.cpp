@@ -29,7 +29,11 @@ Executive::Executive(const ExecutiveConfig& cfg, Clock& clock, ExecutiveDevices 
       odometry_q_(cfg.odometry_queue),
       laser_q_(cfg.laser_queue),
       feature_q_(cfg.feature_queue),
-      core_(cfg),
+      core_([&] {
+        ExecutiveConfig c = cfg;
+        c.localmap.async_rebuild = true;  // the map worker thread builds the field
+        return c;
+      }()),
       scan_work_(std::make_unique<lms::LmsScan>()) {
   if (!dev_.laser || !dev_.can || !dev_.power) throw std::invalid_argument("executive: a device is missing");
   master_ = std::make_unique<canopen::DriveMaster>(dev_.can.get(), &clock_, cfg.master);
@@ -48,6 +52,7 @@ void Executive::start() {
   threads_[1] = std::thread([this] { can_thread(); });
   threads_[2] = std::thread([this] { power_thread(); });
   threads_[3] = std::thread([this] { rt_thread(); });
+  threads_[4] = std::thread([this] { map_worker_thread(); });
 }
 
 void Executive::stop() {
@@ -213,7 +218,10 @@ void Executive::rt_thread() {
     WheelReading ws;
     if (wheels_.read(&ws)) core_.on_wheels(ws);
     // Scans: at most two per wake (the laser makes < 1 per 10 ms); the rest wait.
-    for (int k = 0; k < 2 && scan_q_.pop(scan_work_.get()); ++k) core_.on_scan(*scan_work_, clock.now(), outputs_);
+    for (int k = 0; k < 2 && scan_q_.pop(scan_work_.get()); ++k) {
+      core_.on_scan(*scan_work_, clock.now(), outputs_);
+      if (core_.mapper().rebuild_requested()) rebuild_event_.notify();  // a keyframe: the worker builds
+    }
     const Nanos wake = clock.now();
     if (wake < deadline) continue;
     control_cycle(wake, dt);
@@ -231,6 +239,20 @@ void Executive::rt_thread() {
   // Leave the wheels commanded to zero.
   wheel_cmd_.write({});
   if (hooks_.finished) hooks_.finished("rt");
+}
+
+// ---- map worker: the keyframe rebuild off the RT thread -------------------------------
+
+void Executive::map_worker_thread() {
+  rt_reports_[4] = "map worker: " + apply_rt(cfg_.map_worker);
+  Clock& clock = clock_;
+  if (hooks_.steady) hooks_.steady("map");
+  localmap::LocalMapper& mapper = core_.mapper();  // only build_pending() here (its threading contract)
+  while (running_.load(std::memory_order_relaxed)) {
+    const std::uint32_t seen = rebuild_event_.value();
+    if (!mapper.build_pending()) clock.wait_event(rebuild_event_, seen, clock.now() + 50 * kNanosPerMilli);
+  }
+  if (hooks_.finished) hooks_.finished("map");
 }
 
 void Executive::control_cycle(Nanos now, double dt) {

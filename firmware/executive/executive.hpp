@@ -4,7 +4,9 @@
 // which calls the pop_*/set_velocity/note_link methods from one thread. The caller hands
 // it its clock and its opened devices (firmware/executive/devices.hpp opens them from
 // URIs). The RT thread wakes when a scan arrives (processed at once) and at each control
-// period; each output wakes the non-RT side through output_event(). Every buffer is
+// period; each output wakes the non-RT side through output_event(). A keyframe's rebuild
+// of the likelihood field runs on a lower-priority worker thread into a second grid, which
+// the RT thread swaps in (localmap async_rebuild); matching goes on meanwhile. Every buffer is
 // reserved in the constructor; after start() the RT loop and the I/O threads do not
 // allocate, share no lock with the non-RT side, and block only in their own device read
 // or their own wait.
@@ -77,7 +79,7 @@ class Executive {
   void stop();
   /// What the RT setup achieved per thread ("rt: SCHED_FIFO refused ..."); each thread
   /// writes its own line as it starts: read after stop().
-  const std::array<std::string, 4>& rt_reports() const { return rt_reports_; }
+  const std::array<std::string, 5>& rt_reports() const { return rt_reports_; }
 
   // Non-RT side (one thread).
   void set_velocity(double v, double w, Nanos now);
@@ -113,13 +115,14 @@ class Executive {
   void can_thread();
   void power_thread();
   void rt_thread();
+  void map_worker_thread();
   void control_cycle(Nanos now, double dt);
 
   ExecutiveConfig cfg_;
   Clock& clock_;
   ExecutiveDevices dev_;
   ThreadHooks hooks_;
-  std::array<std::string, 4> rt_reports_;
+  std::array<std::string, 5> rt_reports_;
   std::atomic<bool> running_{false};
   std::unique_ptr<canopen::DriveMaster> master_;
   Sink sink_;
@@ -128,7 +131,7 @@ class Executive {
   SpscQueue<msg::OdometryIncrement> odometry_q_;
   SpscQueue<msg::LaserScan> laser_q_;
   SpscQueue<msg::FeatureObservations> feature_q_;
-  EventCount scan_event_, output_event_;
+  EventCount scan_event_, output_event_, rebuild_event_;
   LatestBox<Velocity> velocity_;
   LatestBox<WheelReading> wheels_;
   LatestBox<canopen::WheelCommand> wheel_cmd_;
@@ -143,7 +146,7 @@ class Executive {
   std::unique_ptr<lms::LmsScan> scan_work_;
   bool was_estop_ = false;
   RtSnapshot snap_;
-  std::thread threads_[4];
+  std::thread threads_[5];
 };
 
 }  // namespace cairn::firmware

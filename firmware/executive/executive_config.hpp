@@ -38,6 +38,7 @@ struct ExecutiveConfig {
   Nanos period = 10 * kNanosPerMilli;
   RtRequest rt_loop{80, -1, true};
   RtRequest io_threads{70, -1, false};
+  RtRequest map_worker{50, -1, false};  // builds the next likelihood field off the RT thread
   // Estimation and outputs.
   OdometryNoise odometry;
   localmap::LocalMapConfig localmap;

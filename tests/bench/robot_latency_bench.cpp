@@ -60,6 +60,7 @@ Phase run_phase(const std::string& world_path, double seconds, int priority, boo
   ec.safety.link_timeout = 0;
   ec.rt_loop = {priority, 0, priority > 0};  // RT loop on CPU 0; the load goes on CPU 1
   ec.io_threads = {priority > 0 ? priority - 10 : 0, -1, false};
+  ec.map_worker = {priority > 0 ? priority - 30 : 0, -1, false};
 
   dds::Participant robot_pp(rc.dds), listener_pp(dds::loopback_profile(kDomain));
   firmware::RobotBridge bridge(robot_pp, rc);

@@ -69,6 +69,7 @@ struct Harness {
     cfg.safety.max_v = 1.0;
     cfg.rt_loop = {};  // tests run unprivileged
     cfg.io_threads = {};
+    cfg.map_worker = {};
     auto& clock = MonotonicClock::instance();
     exec = std::make_unique<firmware::Executive>(cfg, clock, firmware::open_devices(cfg, clock, [] { return false; }),
                                                  firmware::ThreadHooks{on_steady, on_finished});
@@ -193,7 +194,7 @@ TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
   EXPECT_GT(snap.matched, snap.scans * 9 / 10);
   EXPECT_EQ(snap.overflows, 0u);
 #ifndef CAIRN_SANITIZED
-  EXPECT_EQ(g_counted_threads.load(), 4);
+  EXPECT_EQ(g_counted_threads.load(), 5);
   EXPECT_EQ(g_allocations.load(), 0u) << "heap allocations on the RT and I/O threads after start-up";
 #endif
 }
