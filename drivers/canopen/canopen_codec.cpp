@@ -35,7 +35,7 @@ std::uint32_t get32(const std::uint8_t* p) {
   return static_cast<std::uint32_t>(p[0]) | (static_cast<std::uint32_t>(p[1]) << 8) | (static_cast<std::uint32_t>(p[2]) << 16) |
          (static_cast<std::uint32_t>(p[3]) << 24);
 }
-bool standard(const Frame& f) { return !(f.id & (Frame::kExtended | Frame::kRemote | Frame::kError)); }
+bool standard(const Frame& f) { return is_standard_data_frame(f); }
 }  // namespace
 
 Frame nmt(NmtCommand cmd, std::uint8_t node) { return make(kCobNmt, {static_cast<std::uint8_t>(cmd), node}); }

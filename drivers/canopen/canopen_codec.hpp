@@ -35,6 +35,12 @@ struct Classified {
   std::uint8_t pdo = 0;  // 0..3 for PDOs
 };
 Classified classify(std::uint32_t cob_id);
+/// CANopen (CiA 301) uses 11-bit data frames only: false for extended (29-bit), remote
+/// (RTR) and error frames, which must never be taken for a PDO, SDO, heartbeat or EMCY
+/// even when their low 11 bits match a COB-ID.
+constexpr bool is_standard_data_frame(const Frame& f) {
+  return !(f.id & (Frame::kExtended | Frame::kRemote | Frame::kError));
+}
 
 struct Heartbeat {
   std::uint8_t node = 0;

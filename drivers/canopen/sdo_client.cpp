@@ -89,7 +89,7 @@ void SdoClient::send_next(Nanos now) {
 }
 
 void SdoClient::on_frame(const Frame& f, Nanos now) {
-  if (status_ != Status::kBusy || (f.id & 0x7FF) != kCobSdoTx + node_) return;
+  if (status_ != Status::kBusy || !is_standard_data_frame(f) || f.id != kCobSdoTx + node_) return;
   const SdoResponse r = decode_sdo_response(f);
   if (r.type == SdoResponse::Type::kAbort) {
     fail(r.abort_code);

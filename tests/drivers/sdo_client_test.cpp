@@ -90,6 +90,25 @@ TEST(SdoClient, SilentNodeTimesOutAfterRetries) {
   EXPECT_EQ(c.timeouts(), 3u);             // first try + 2 retries
 }
 
+TEST(SdoClient, ExtendedOrRemoteFrameOnTheResponseIdIsIgnored) {
+  Nanos now = 0;
+  hil::DriveNode node = booted_node(&now);
+  SdoClient c(3, 50 * kNanosPerMilli, 2);
+  ASSERT_TRUE(c.upload({0x1000, 0}));
+  ASSERT_TRUE(c.poll(now += kNanosPerMilli));  // the request is out
+  Frame junk;
+  junk.len = 8;
+  junk.id = 0x583 | Frame::kExtended;  // low 11 bits: node 3's SDO response
+  c.on_frame(junk, now);
+  junk.id = 0x583 | Frame::kRemote;
+  c.on_frame(junk, now);
+  EXPECT_EQ(c.status(), SdoClient::Status::kBusy) << c.error();
+  c.reset();
+  ASSERT_TRUE(c.upload({0x1000, 0}));
+  ASSERT_EQ(run(c, node, &now), SdoClient::Status::kDone);
+  EXPECT_EQ(c.value(), 0xFFFF0192u);
+}
+
 // A minimal SDO server that accepts segmented downloads, to check the client's side of them.
 TEST(SdoClient, SegmentedDownload) {
   SdoClient c(5, 50 * kNanosPerMilli, 1);
