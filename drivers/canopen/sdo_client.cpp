@@ -55,7 +55,17 @@ std::uint32_t SdoClient::value() const {
   return v;
 }
 
+void SdoClient::fail_and_abort(std::uint32_t code) {
+  fail(code);
+  abort_out_ = sdo_abort(kCobSdoRx + node_, addr_, code);
+}
+
 std::optional<Frame> SdoClient::poll(Nanos now) {
+  if (abort_out_) {
+    const Frame f = *abort_out_;
+    abort_out_.reset();
+    return f;
+  }
   if (status_ != Status::kBusy) return std::nullopt;
   if (pending_) {
     last_sent_ = *pending_;
@@ -105,9 +115,7 @@ void SdoClient::on_frame(const Frame& f, Nanos now) {
         send_next(now);
       } else if (initiated_ && r.type == SdoResponse::Type::kDownloadSegmentAck) {
         if (r.toggle != toggle_) {
-          fail(kAbortToggle);
-          pending_ = sdo_abort(kCobSdoRx + node_, addr_, kAbortToggle);
-          status_ = Status::kFailed;
+          fail_and_abort(kAbortToggle);
           return;
         }
         toggle_ = !toggle_;
@@ -128,11 +136,11 @@ void SdoClient::on_frame(const Frame& f, Nanos now) {
         send_next(now);
       } else if (initiated_ && r.type == SdoResponse::Type::kUploadSegment) {
         if (r.toggle != toggle_) {
-          fail(kAbortToggle);
+          fail_and_abort(kAbortToggle);
           return;
         }
         if (size_ + r.size > kMaxData) {
-          fail(kAbortTooLong);
+          fail_and_abort(kAbortTooLong);
           return;
         }
         std::copy_n(r.segment.begin(), r.size, buf_.begin() + static_cast<long>(size_));
@@ -144,7 +152,7 @@ void SdoClient::on_frame(const Frame& f, Nanos now) {
           send_next(now);
         }
       } else if (r.type == SdoResponse::Type::kInvalid) {
-        fail(kAbortInvalid);
+        fail_and_abort(kAbortInvalid);
       }
       return;
     case Op::kNone:

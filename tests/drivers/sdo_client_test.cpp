@@ -140,5 +140,60 @@ TEST(SdoClient, SegmentedDownload) {
   EXPECT_EQ(received, text);
 }
 
+// The server acknowledges a segment with the wrong toggle: the client fails the transfer
+// AND tells the server (CiA 301: abort 0x05030000 on the client's request COB-ID).
+TEST(SdoClient, DownloadToggleErrorSendsTheAbort) {
+  SdoClient c(5, 50 * kNanosPerMilli, 1);
+  const std::string text = "robot-7 left wheel";
+  ASSERT_TRUE(c.download({0x1008, 0}, {reinterpret_cast<const std::uint8_t*>(text.data()), text.size()}));
+  Nanos now = kNanosPerMilli;
+  auto init = c.poll(now);
+  ASSERT_TRUE(init);
+  Frame ack;
+  ack.id = 0x585;
+  ack.len = 8;
+  ack.data[0] = 0x60;  // initiate download response
+  c.on_frame(ack, now);
+  auto seg = c.poll(now += kNanosPerMilli);
+  ASSERT_TRUE(seg);
+  ASSERT_EQ(seg->data[0] >> 5, 0) << "first segment";
+  ASSERT_FALSE(seg->data[0] & 0x10) << "first segment has toggle 0";
+  ack.data[0] = 0x20 | 0x10;  // segment ack with toggle 1: wrong
+  c.on_frame(ack, now);
+  EXPECT_EQ(c.status(), SdoClient::Status::kFailed);
+  EXPECT_EQ(c.abort_code(), 0x05030000u);
+  const auto abort = c.poll(now += kNanosPerMilli);
+  ASSERT_TRUE(abort) << "the queued abort must go out";
+  EXPECT_EQ(abort->id, 0x605u);
+  const SdoResponse r = decode_sdo_response(*abort);  // same layout in both directions
+  EXPECT_EQ(r.type, SdoResponse::Type::kAbort);
+  EXPECT_EQ(r.abort_code, 0x05030000u);
+  EXPECT_EQ(r.address.index, 0x1008);
+  EXPECT_FALSE(c.poll(now += kNanosPerMilli)) << "sent once";
+}
+
+TEST(SdoClient, UploadToggleErrorSendsTheAbort) {
+  SdoClient c(5, 50 * kNanosPerMilli, 1);
+  ASSERT_TRUE(c.upload({0x1008, 0}));
+  Nanos now = kNanosPerMilli;
+  ASSERT_TRUE(c.poll(now));
+  Frame r;
+  r.id = 0x585;
+  r.len = 8;
+  r.data = {0x41, 0x08, 0x10, 0x00, 20, 0, 0, 0};  // segmented upload, 20 bytes
+  c.on_frame(r, now);
+  auto req = c.poll(now += kNanosPerMilli);
+  ASSERT_TRUE(req);
+  ASSERT_EQ(req->data[0], 0x60) << "upload segment request, toggle 0";
+  r.data = {0x10, 'a', 'b', 'c', 'd', 'e', 'f', 'g'};  // toggle 1: wrong
+  c.on_frame(r, now);
+  EXPECT_EQ(c.status(), SdoClient::Status::kFailed);
+  EXPECT_EQ(c.abort_code(), 0x05030000u);
+  const auto abort = c.poll(now += kNanosPerMilli);
+  ASSERT_TRUE(abort) << "the client aborts the transfer on the bus";
+  EXPECT_EQ(abort->id, 0x605u);
+  EXPECT_EQ(decode_sdo_response(*abort).abort_code, 0x05030000u);
+}
+
 }  // namespace
 }  // namespace cairn::canopen
