@@ -5,8 +5,8 @@
 namespace cairn::canopen {
 
 namespace {
-constexpr std::uint32_t kAbortTimeout = 0x05040000, kAbortToggle = 0x05030000, kAbortInvalid = 0x05040001,
-                        kAbortTooLong = 0x06070012;
+constexpr std::uint32_t kAbortTimeout = abort_code::kTimeout, kAbortToggle = abort_code::kToggleBit,
+                        kAbortInvalid = abort_code::kCommand, kAbortTooLong = abort_code::kDataTooLong;
 }
 
 bool SdoClient::download(SdoAddress a, std::span<const std::uint8_t> data) {

@@ -35,7 +35,7 @@ class SdoClient {
   /// After kDone of an upload: the bytes read.
   std::span<const std::uint8_t> data() const { return {buf_.data(), size_}; }
   std::uint32_t value() const;  // little-endian value of the first up-to-4 bytes
-  /// After kFailed: the abort code (0x05040000 for our own timeout) and its text.
+  /// After kFailed: the abort code (abort_code::kTimeout for our own timeout) and its text.
   std::uint32_t abort_code() const { return abort_; }
   const char* error() const { return sdo_abort_text(abort_); }
   std::uint64_t timeouts() const { return timeouts_count_; }

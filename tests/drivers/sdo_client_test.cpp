@@ -67,16 +67,16 @@ TEST(SdoClient, AbortsAreDecoded) {
   SdoClient c(3, 50 * kNanosPerMilli, 2);
   ASSERT_TRUE(c.upload({0x2000, 0}));
   ASSERT_EQ(run(c, node, &now), SdoClient::Status::kFailed);
-  EXPECT_EQ(c.abort_code(), 0x06020000u);
+  EXPECT_EQ(c.abort_code(), abort_code::kNotExist);
   EXPECT_STREQ(c.error(), "object does not exist in the object dictionary");
   c.reset();
   ASSERT_TRUE(c.download_u32({0x6041, 0}, 1, 2));  // statusword is read-only
   ASSERT_EQ(run(c, node, &now), SdoClient::Status::kFailed);
-  EXPECT_EQ(c.abort_code(), 0x06010002u);
+  EXPECT_EQ(c.abort_code(), abort_code::kReadOnly);
   c.reset();
   ASSERT_TRUE(c.download_u32({0x6060, 0}, 7, 1));  // a mode the drive does not support
   ASSERT_EQ(run(c, node, &now), SdoClient::Status::kFailed);
-  EXPECT_EQ(c.abort_code(), 0x06090030u);
+  EXPECT_EQ(c.abort_code(), abort_code::kInvalidValue);
 }
 
 TEST(SdoClient, SilentNodeTimesOutAfterRetries) {
@@ -86,7 +86,7 @@ TEST(SdoClient, SilentNodeTimesOutAfterRetries) {
   SdoClient c(3, 20 * kNanosPerMilli, 2);
   ASSERT_TRUE(c.upload({0x1000, 0}));
   ASSERT_EQ(run(c, node, &now, 200), SdoClient::Status::kFailed);
-  EXPECT_EQ(c.abort_code(), 0x05040000u);  // SDO protocol timed out
+  EXPECT_EQ(c.abort_code(), abort_code::kTimeout);  // SDO protocol timed out
   EXPECT_EQ(c.timeouts(), 3u);             // first try + 2 retries
 }
 
@@ -161,13 +161,13 @@ TEST(SdoClient, DownloadToggleErrorSendsTheAbort) {
   ack.data[0] = 0x20 | 0x10;  // segment ack with toggle 1: wrong
   c.on_frame(ack, now);
   EXPECT_EQ(c.status(), SdoClient::Status::kFailed);
-  EXPECT_EQ(c.abort_code(), 0x05030000u);
+  EXPECT_EQ(c.abort_code(), abort_code::kToggleBit);
   const auto abort = c.poll(now += kNanosPerMilli);
   ASSERT_TRUE(abort) << "the queued abort must go out";
   EXPECT_EQ(abort->id, 0x605u);
   const SdoResponse r = decode_sdo_response(*abort);  // same layout in both directions
   EXPECT_EQ(r.type, SdoResponse::Type::kAbort);
-  EXPECT_EQ(r.abort_code, 0x05030000u);
+  EXPECT_EQ(r.abort_code, abort_code::kToggleBit);
   EXPECT_EQ(r.address.index, 0x1008);
   EXPECT_FALSE(c.poll(now += kNanosPerMilli)) << "sent once";
 }
@@ -188,11 +188,11 @@ TEST(SdoClient, UploadToggleErrorSendsTheAbort) {
   r.data = {0x10, 'a', 'b', 'c', 'd', 'e', 'f', 'g'};  // toggle 1: wrong
   c.on_frame(r, now);
   EXPECT_EQ(c.status(), SdoClient::Status::kFailed);
-  EXPECT_EQ(c.abort_code(), 0x05030000u);
+  EXPECT_EQ(c.abort_code(), abort_code::kToggleBit);
   const auto abort = c.poll(now += kNanosPerMilli);
   ASSERT_TRUE(abort) << "the client aborts the transfer on the bus";
   EXPECT_EQ(abort->id, 0x605u);
-  EXPECT_EQ(decode_sdo_response(*abort).abort_code, 0x05030000u);
+  EXPECT_EQ(decode_sdo_response(*abort).abort_code, abort_code::kToggleBit);
 }
 
 }  // namespace
