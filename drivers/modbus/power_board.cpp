@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
+#include <optional>
+#include <string_view>
 
 namespace cairn::modbus {
 
@@ -25,6 +28,18 @@ bool decode_power(const std::uint16_t regs[4], bool estop, const RegisterMap& m,
   return true;
 }
 
+namespace {
+// A decimal integer in [lo, hi], the whole string: no exceptions (std::stoi throws on
+// "abc" and out-of-range, and accepts "502abc").
+std::optional<int> parse_int(std::string_view text, int lo, int hi) {
+  int v = 0;
+  const char* end = text.data() + text.size();
+  const auto [p, ec] = std::from_chars(text.data(), end, v);
+  if (text.empty() || ec != std::errc() || p != end || v < lo || v > hi) return std::nullopt;
+  return v;
+}
+}  // namespace
+
 std::unique_ptr<PowerBoard> PowerBoard::open(const std::string& uri, const RegisterMap& map, Nanos response_timeout,
                                              std::string* error) {
   modbus_t* ctx = nullptr;
@@ -35,7 +50,12 @@ std::unique_ptr<PowerBoard> PowerBoard::open(const std::string& uri, const Regis
       *error = "'" + uri + "': expected tcp:HOST:PORT";
       return nullptr;
     }
-    ctx = modbus_new_tcp(rest.substr(0, c).c_str(), std::stoi(rest.substr(c + 1)));
+    const auto port = parse_int(std::string_view(rest).substr(c + 1), 1, 65535);
+    if (!port) {
+      *error = "'" + uri + "': the TCP port must be a number in 1..65535";
+      return nullptr;
+    }
+    ctx = modbus_new_tcp(rest.substr(0, c).c_str(), *port);
   } else if (uri.rfind("rtu:", 0) == 0) {
     const std::string rest = uri.substr(4);
     const auto c = rest.rfind(':');
@@ -43,7 +63,12 @@ std::unique_ptr<PowerBoard> PowerBoard::open(const std::string& uri, const Regis
       *error = "'" + uri + "': expected rtu:DEVICE:BAUD";
       return nullptr;
     }
-    ctx = modbus_new_rtu(rest.substr(0, c).c_str(), std::stoi(rest.substr(c + 1)), 'N', 8, 1);
+    const auto baud = parse_int(std::string_view(rest).substr(c + 1), 1, 4'000'000);
+    if (!baud) {
+      *error = "'" + uri + "': the baud rate must be a positive number (e.g. 115200)";
+      return nullptr;
+    }
+    ctx = modbus_new_rtu(rest.substr(0, c).c_str(), *baud, 'N', 8, 1);
   } else {
     *error = "'" + uri + "': expected tcp:HOST:PORT or rtu:DEVICE:BAUD";
     return nullptr;

@@ -43,7 +43,8 @@ struct PowerCounters {
 
 class PowerBoard {
  public:
-  /// "tcp:HOST:PORT" or "rtu:DEVICE:BAUD" (8N1). Nullptr and a message on failure.
+  /// "tcp:HOST:PORT" or "rtu:DEVICE:BAUD" (8N1). Nullptr and a message on failure: a bad
+  /// URI (port 1..65535, a positive baud rate, digits only) or no connection. Never throws for a bad URI.
   static std::unique_ptr<PowerBoard> open(const std::string& uri, const RegisterMap& map, Nanos response_timeout,
                                           std::string* error);
   ~PowerBoard();

@@ -85,6 +85,25 @@ TEST(PowerBoard, ErrorsAreClearAndCounted) {
   EXPECT_FALSE(modbus::decode_power(regs, false, {}, &s));
 }
 
+// A malformed port or baud rate is a clear error, not an exception out of std::stoi.
+TEST(PowerBoard, BadPortOrBaudIsAClearErrorNotAThrow) {
+  for (const char* uri : {"tcp:127.0.0.1:notaport", "tcp:127.0.0.1:", "tcp:127.0.0.1:99999999999", "tcp:127.0.0.1:70000",
+                          "tcp:127.0.0.1:0", "tcp:127.0.0.1:-5", "tcp:127.0.0.1:502x"}) {
+    std::string err;
+    std::unique_ptr<modbus::PowerBoard> b;
+    EXPECT_NO_THROW(b = modbus::PowerBoard::open(uri, {}, 100 * kNanosPerMilli, &err)) << uri;
+    EXPECT_EQ(b, nullptr) << uri;
+    EXPECT_NE(err.find("the TCP port must be a number in 1..65535"), std::string::npos) << uri << ": " << err;
+  }
+  for (const char* uri : {"rtu:/dev/ttyUSB0:fast", "rtu:/dev/ttyUSB0:", "rtu:/dev/ttyUSB0:0", "rtu:/dev/ttyUSB0:1e9"}) {
+    std::string err;
+    std::unique_ptr<modbus::PowerBoard> b;
+    EXPECT_NO_THROW(b = modbus::PowerBoard::open(uri, {}, 100 * kNanosPerMilli, &err)) << uri;
+    EXPECT_EQ(b, nullptr) << uri;
+    EXPECT_NE(err.find("the baud rate must be a positive number"), std::string::npos) << uri << ": " << err;
+  }
+}
+
 TEST(PowerBoard, EstopDisablesTheDrivesWithinOneControlPeriod) {
   // Drives on the user-space CAN bus, enabled and moving.
   can::Hub hub("/tmp/cairn-estop-test-" + std::to_string(getpid()));
