@@ -28,6 +28,28 @@ bool decode_power(const std::uint16_t regs[4], bool estop, const RegisterMap& m,
   return true;
 }
 
+bool validate_register_map(const RegisterMap& m, std::string* error) {
+  if (m.slave < 1 || m.slave > 247) {
+    *error = "power board register map: slave " + std::to_string(m.slave) + " is not a Modbus unit id (1..247)";
+    return false;
+  }
+  for (int a : {m.voltage, m.current, m.soc, m.temperature, m.estop, m.motor_relay}) {
+    if (a < 0 || a > 65535) {
+      *error = "power board register map: address " + std::to_string(a) + " is outside 0..65535";
+      return false;
+    }
+  }
+  const int lo = std::min({m.voltage, m.current, m.soc, m.temperature});
+  const int hi = std::max({m.voltage, m.current, m.soc, m.temperature});
+  if (hi - lo + 1 > kMaxReadRegisters) {
+    *error = "power board register map: the input registers span " + std::to_string(lo) + ".." + std::to_string(hi) + " (" +
+             std::to_string(hi - lo + 1) + " registers); one Modbus read holds at most " + std::to_string(kMaxReadRegisters) +
+             ", so it could never be polled";
+    return false;
+  }
+  return true;
+}
+
 namespace {
 // A decimal integer in [lo, hi], the whole string: no exceptions (std::stoi throws on
 // "abc" and out-of-range, and accepts "502abc").
@@ -42,6 +64,7 @@ std::optional<int> parse_int(std::string_view text, int lo, int hi) {
 
 std::unique_ptr<PowerBoard> PowerBoard::open(const std::string& uri, const RegisterMap& map, Nanos response_timeout,
                                              std::string* error) {
+  if (!validate_register_map(map, error)) return nullptr;
   modbus_t* ctx = nullptr;
   if (uri.rfind("tcp:", 0) == 0) {
     const std::string rest = uri.substr(4);
@@ -113,8 +136,9 @@ bool PowerBoard::poll(PowerState* out, std::string* error) {
   // One read covers the four registers when they are consecutive (the usual map).
   const int lo = std::min({map_.voltage, map_.current, map_.soc, map_.temperature});
   const int hi = std::max({map_.voltage, map_.current, map_.soc, map_.temperature});
-  std::uint16_t block[125];
-  if (hi - lo >= 125 || modbus_read_input_registers(ctx_, lo, hi - lo + 1, block) != hi - lo + 1) {
+  std::uint16_t block[kMaxReadRegisters];
+  // A span over kMaxReadRegisters is refused by validate_register_map(); kept as a guard.
+  if (hi - lo >= kMaxReadRegisters || modbus_read_input_registers(ctx_, lo, hi - lo + 1, block) != hi - lo + 1) {
     *error = uri_ + ": reading input registers: " + modbus_strerror(errno);
     note_failure();
     return false;
