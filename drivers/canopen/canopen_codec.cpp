@@ -35,7 +35,7 @@ std::uint32_t get32(const std::uint8_t* p) {
   return static_cast<std::uint32_t>(p[0]) | (static_cast<std::uint32_t>(p[1]) << 8) | (static_cast<std::uint32_t>(p[2]) << 16) |
          (static_cast<std::uint32_t>(p[3]) << 24);
 }
-bool standard(const Frame& f) { return !(f.id & (Frame::kExtended | Frame::kRemote | Frame::kError)); }
+bool standard(const Frame& f) { return is_standard_data_frame(f); }
 }  // namespace
 
 Frame nmt(NmtCommand cmd, std::uint8_t node) { return make(kCobNmt, {static_cast<std::uint8_t>(cmd), node}); }
@@ -117,38 +117,42 @@ const char* emcy_text(std::uint16_t code) {
   }
 }
 
+const std::array<AbortCodeText, 28> kAbortCodeTexts = {{
+    {abort_code::kToggleBit, "toggle bit not altered"},
+    {abort_code::kTimeout, "SDO protocol timed out"},
+    {abort_code::kCommand, "command specifier not valid or unknown"},
+    {abort_code::kOutOfMemory, "out of memory"},
+    {abort_code::kUnsupportedAccess, "unsupported access to an object"},
+    {abort_code::kWriteOnly, "attempt to read a write-only object"},
+    {abort_code::kReadOnly, "attempt to write a read-only object"},
+    {abort_code::kNotExist, "object does not exist in the object dictionary"},
+    {abort_code::kNoMap, "object cannot be mapped to the PDO"},
+    {abort_code::kMapLength, "the number and length of the objects to be mapped would exceed PDO length"},
+    {abort_code::kParameterIncompatible, "general parameter incompatibility"},
+    {abort_code::kDeviceIncompatible, "general internal incompatibility in the device"},
+    {abort_code::kHardware, "access failed due to a hardware error"},
+    {abort_code::kTypeMismatch, "data type does not match, length of service parameter does not match"},
+    {abort_code::kDataTooLong, "data type does not match, length of service parameter too high"},
+    {abort_code::kDataTooShort, "data type does not match, length of service parameter too low"},
+    {abort_code::kSubUnknown, "sub-index does not exist"},
+    {abort_code::kInvalidValue, "invalid value for parameter"},
+    {abort_code::kValueTooHigh, "value of parameter written too high"},
+    {abort_code::kValueTooLow, "value of parameter written too low"},
+    {abort_code::kMaxLessThanMin, "maximum value is less than minimum value"},
+    {abort_code::kNoResource, "resource not available: SDO connection"},
+    {abort_code::kGeneral, "general error"},
+    {abort_code::kDataTransfer, "data cannot be transferred or stored to the application"},
+    {abort_code::kDataLocalControl, "data cannot be transferred or stored because of local control"},
+    {abort_code::kDataDeviceState, "data cannot be transferred or stored because of the present device state"},
+    {abort_code::kDataObjectDictionary, "object dictionary dynamic generation failed or no object dictionary present"},
+    {abort_code::kNoData, "no data available"},
+}};
+
 const char* sdo_abort_text(std::uint32_t code) {
-  switch (code) {
-    case 0x05030000: return "toggle bit not altered";
-    case 0x05040000: return "SDO protocol timed out";
-    case 0x05040001: return "command specifier not valid or unknown";
-    case 0x05040005: return "out of memory";
-    case 0x06010000: return "unsupported access to an object";
-    case 0x06010001: return "attempt to read a write-only object";
-    case 0x06010002: return "attempt to write a read-only object";
-    case 0x06020000: return "object does not exist in the object dictionary";
-    case 0x06040041: return "object cannot be mapped to the PDO";
-    case 0x06040042: return "the number and length of the objects to be mapped would exceed PDO length";
-    case 0x06040043: return "general parameter incompatibility";
-    case 0x06040047: return "general internal incompatibility in the device";
-    case 0x06060000: return "access failed due to a hardware error";
-    case 0x06070010: return "data type does not match, length of service parameter does not match";
-    case 0x06070012: return "data type does not match, length of service parameter too high";
-    case 0x06070013: return "data type does not match, length of service parameter too low";
-    case 0x06090011: return "sub-index does not exist";
-    case 0x06090030: return "invalid value for parameter";
-    case 0x06090031: return "value of parameter written too high";
-    case 0x06090032: return "value of parameter written too low";
-    case 0x06090036: return "maximum value is less than minimum value";
-    case 0x060A0023: return "resource not available: SDO connection";
-    case 0x08000000: return "general error";
-    case 0x08000020: return "data cannot be transferred or stored to the application";
-    case 0x08000021: return "data cannot be transferred or stored because of local control";
-    case 0x08000022: return "data cannot be transferred or stored because of the present device state";
-    case 0x08000023: return "object dictionary dynamic generation failed or no object dictionary present";
-    case 0x08000024: return "no data available";
-    default: return "unknown abort code";
+  for (const AbortCodeText& e : kAbortCodeTexts) {
+    if (e.code == code) return e.text;
   }
+  return "unknown abort code";
 }
 
 Frame sdo_download(std::uint8_t node, SdoAddress a, std::span<const std::uint8_t> data) {

@@ -3,6 +3,7 @@
 // no clock, no heap. Facts: ../shared/docs/protocols.md §2.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -35,6 +36,12 @@ struct Classified {
   std::uint8_t pdo = 0;  // 0..3 for PDOs
 };
 Classified classify(std::uint32_t cob_id);
+/// CANopen (CiA 301) uses 11-bit data frames only: false for extended (29-bit), remote
+/// (RTR) and error frames, which must never be taken for a PDO, SDO, heartbeat or EMCY
+/// even when their low 11 bits match a COB-ID.
+constexpr bool is_standard_data_frame(const Frame& f) {
+  return !(f.id & (Frame::kExtended | Frame::kRemote | Frame::kError));
+}
 
 struct Heartbeat {
   std::uint8_t node = 0;
@@ -55,7 +62,45 @@ const char* emcy_text(std::uint16_t code);
 
 // ---- SDO (client side builds requests and reads responses; the server the reverse)
 inline constexpr std::uint8_t kSdoAbort = 0x80;
-const char* sdo_abort_text(std::uint32_t code);
+// SDO abort codes (CiA 301 §7.2.4.3.17): the one source of truth for the master, the
+// emulated drive and the tests. Names follow CANopenNode's CO_SDO_abortCode_t.
+namespace abort_code {
+inline constexpr std::uint32_t kToggleBit = 0x05030000;  // CO_SDO_AB_TOGGLE_BIT
+inline constexpr std::uint32_t kTimeout = 0x05040000;  // CO_SDO_AB_TIMEOUT
+inline constexpr std::uint32_t kCommand = 0x05040001;  // CO_SDO_AB_CMD
+inline constexpr std::uint32_t kOutOfMemory = 0x05040005;  // CO_SDO_AB_OUT_OF_MEM
+inline constexpr std::uint32_t kUnsupportedAccess = 0x06010000;  // CO_SDO_AB_UNSUPPORTED_ACCESS
+inline constexpr std::uint32_t kWriteOnly = 0x06010001;  // CO_SDO_AB_WRITEONLY
+inline constexpr std::uint32_t kReadOnly = 0x06010002;  // CO_SDO_AB_READONLY
+inline constexpr std::uint32_t kNotExist = 0x06020000;  // CO_SDO_AB_NOT_EXIST
+inline constexpr std::uint32_t kNoMap = 0x06040041;  // CO_SDO_AB_NO_MAP
+inline constexpr std::uint32_t kMapLength = 0x06040042;  // CO_SDO_AB_MAP_LEN
+inline constexpr std::uint32_t kParameterIncompatible = 0x06040043;  // CO_SDO_AB_PRAM_INCOMPAT
+inline constexpr std::uint32_t kDeviceIncompatible = 0x06040047;  // CO_SDO_AB_DEVICE_INCOMPAT
+inline constexpr std::uint32_t kHardware = 0x06060000;  // CO_SDO_AB_HW
+inline constexpr std::uint32_t kTypeMismatch = 0x06070010;  // CO_SDO_AB_TYPE_MISMATCH
+inline constexpr std::uint32_t kDataTooLong = 0x06070012;  // CO_SDO_AB_DATA_LONG
+inline constexpr std::uint32_t kDataTooShort = 0x06070013;  // CO_SDO_AB_DATA_SHORT
+inline constexpr std::uint32_t kSubUnknown = 0x06090011;  // CO_SDO_AB_SUB_UNKNOWN
+inline constexpr std::uint32_t kInvalidValue = 0x06090030;  // CO_SDO_AB_INVALID_VALUE
+inline constexpr std::uint32_t kValueTooHigh = 0x06090031;  // CO_SDO_AB_VALUE_HIGH
+inline constexpr std::uint32_t kValueTooLow = 0x06090032;  // CO_SDO_AB_VALUE_LOW
+inline constexpr std::uint32_t kMaxLessThanMin = 0x06090036;  // CO_SDO_AB_MAX_LESS_MIN
+inline constexpr std::uint32_t kNoResource = 0x060A0023;  // CO_SDO_AB_NO_RESOURCE
+inline constexpr std::uint32_t kGeneral = 0x08000000;  // CO_SDO_AB_GENERAL
+inline constexpr std::uint32_t kDataTransfer = 0x08000020;  // CO_SDO_AB_DATA_TRANSF
+inline constexpr std::uint32_t kDataLocalControl = 0x08000021;  // CO_SDO_AB_DATA_LOC_CTRL
+inline constexpr std::uint32_t kDataDeviceState = 0x08000022;  // CO_SDO_AB_DATA_DEV_STATE
+inline constexpr std::uint32_t kDataObjectDictionary = 0x08000023;  // CO_SDO_AB_DATA_OD
+inline constexpr std::uint32_t kNoData = 0x08000024;  // CO_SDO_AB_NO_DATA
+}  // namespace abort_code
+struct AbortCodeText {
+  std::uint32_t code;
+  const char* text;
+};
+/// Every named abort code with its text (what sdo_abort_text() reads).
+extern const std::array<AbortCodeText, 28> kAbortCodeTexts;
+const char* sdo_abort_text(std::uint32_t code);  // "unknown abort code" for the rest
 
 struct SdoAddress {
   std::uint16_t index = 0;

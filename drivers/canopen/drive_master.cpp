@@ -108,6 +108,9 @@ bool DriveMaster::next_config(Node& n) {
 
 void DriveMaster::dispatch(const can::Frame& f, Nanos now) {
   if (f.is_error()) return;  // bus state is read from the port
+  // Only 11-bit data frames are CANopen: an extended or remote frame whose low bits match
+  // a node's TPDO must not overwrite its feedback (nor feed its SDO client, ...).
+  if (!is_standard_data_frame(f)) return;
   const Classified c = classify(f.id);
   for (std::size_t i = 0; i < count_; ++i) {
     Node& n = nodes_[i];

@@ -5,8 +5,8 @@
 namespace cairn::canopen {
 
 namespace {
-constexpr std::uint32_t kAbortTimeout = 0x05040000, kAbortToggle = 0x05030000, kAbortInvalid = 0x05040001,
-                        kAbortTooLong = 0x06070012;
+constexpr std::uint32_t kAbortTimeout = abort_code::kTimeout, kAbortToggle = abort_code::kToggleBit,
+                        kAbortInvalid = abort_code::kCommand, kAbortTooLong = abort_code::kDataTooLong;
 }
 
 bool SdoClient::download(SdoAddress a, std::span<const std::uint8_t> data) {
@@ -55,7 +55,17 @@ std::uint32_t SdoClient::value() const {
   return v;
 }
 
+void SdoClient::fail_and_abort(std::uint32_t code) {
+  fail(code);
+  abort_out_ = sdo_abort(kCobSdoRx + node_, addr_, code);
+}
+
 std::optional<Frame> SdoClient::poll(Nanos now) {
+  if (abort_out_) {
+    const Frame f = *abort_out_;
+    abort_out_.reset();
+    return f;
+  }
   if (status_ != Status::kBusy) return std::nullopt;
   if (pending_) {
     last_sent_ = *pending_;
@@ -89,7 +99,7 @@ void SdoClient::send_next(Nanos now) {
 }
 
 void SdoClient::on_frame(const Frame& f, Nanos now) {
-  if (status_ != Status::kBusy || (f.id & 0x7FF) != kCobSdoTx + node_) return;
+  if (status_ != Status::kBusy || !is_standard_data_frame(f) || f.id != kCobSdoTx + node_) return;
   const SdoResponse r = decode_sdo_response(f);
   if (r.type == SdoResponse::Type::kAbort) {
     fail(r.abort_code);
@@ -105,9 +115,7 @@ void SdoClient::on_frame(const Frame& f, Nanos now) {
         send_next(now);
       } else if (initiated_ && r.type == SdoResponse::Type::kDownloadSegmentAck) {
         if (r.toggle != toggle_) {
-          fail(kAbortToggle);
-          pending_ = sdo_abort(kCobSdoRx + node_, addr_, kAbortToggle);
-          status_ = Status::kFailed;
+          fail_and_abort(kAbortToggle);
           return;
         }
         toggle_ = !toggle_;
@@ -128,11 +136,11 @@ void SdoClient::on_frame(const Frame& f, Nanos now) {
         send_next(now);
       } else if (initiated_ && r.type == SdoResponse::Type::kUploadSegment) {
         if (r.toggle != toggle_) {
-          fail(kAbortToggle);
+          fail_and_abort(kAbortToggle);
           return;
         }
         if (size_ + r.size > kMaxData) {
-          fail(kAbortTooLong);
+          fail_and_abort(kAbortTooLong);
           return;
         }
         std::copy_n(r.segment.begin(), r.size, buf_.begin() + static_cast<long>(size_));
@@ -144,7 +152,7 @@ void SdoClient::on_frame(const Frame& f, Nanos now) {
           send_next(now);
         }
       } else if (r.type == SdoResponse::Type::kInvalid) {
-        fail(kAbortInvalid);
+        fail_and_abort(kAbortInvalid);
       }
       return;
     case Op::kNone:

@@ -25,7 +25,8 @@ class SdoClient {
   /// Reads an object (expedited or segmented).
   bool upload(SdoAddress a);
 
-  /// The next frame to send, if any (first request, next segment, or a retry after a timeout).
+  /// The next frame to send, if any (first request, next segment, a retry after a timeout,
+  /// or the abort of a transfer this client failed: toggle error, overrun, timeout).
   std::optional<Frame> poll(Nanos now);
   /// A frame from the bus; ignored unless it is this node's SDO response.
   void on_frame(const Frame& f, Nanos now);
@@ -34,7 +35,7 @@ class SdoClient {
   /// After kDone of an upload: the bytes read.
   std::span<const std::uint8_t> data() const { return {buf_.data(), size_}; }
   std::uint32_t value() const;  // little-endian value of the first up-to-4 bytes
-  /// After kFailed: the abort code (0x05040000 for our own timeout) and its text.
+  /// After kFailed: the abort code (abort_code::kTimeout for our own timeout) and its text.
   std::uint32_t abort_code() const { return abort_; }
   const char* error() const { return sdo_abort_text(abort_); }
   std::uint64_t timeouts() const { return timeouts_count_; }
@@ -47,6 +48,8 @@ class SdoClient {
     abort_ = code;
     pending_.reset();
   }
+  /// Fails and tells the server: the abort goes out at the next poll().
+  void fail_and_abort(std::uint32_t code);
   void send_next(Nanos now);
 
   std::uint8_t node_;
@@ -60,6 +63,7 @@ class SdoClient {
   bool toggle_ = false;
   bool initiated_ = false;
   std::optional<Frame> pending_;  // frame to hand out at the next poll
+  std::optional<Frame> abort_out_;  // an abort owed to the server: sent at the next poll, even after kFailed
   Frame last_sent_;
   Nanos deadline_ = 0;
   int attempts_ = 0;

@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
+#include <optional>
+#include <string_view>
 
 namespace cairn::modbus {
 
@@ -25,8 +28,43 @@ bool decode_power(const std::uint16_t regs[4], bool estop, const RegisterMap& m,
   return true;
 }
 
+bool validate_register_map(const RegisterMap& m, std::string* error) {
+  if (m.slave < 1 || m.slave > 247) {
+    *error = "power board register map: slave " + std::to_string(m.slave) + " is not a Modbus unit id (1..247)";
+    return false;
+  }
+  for (int a : {m.voltage, m.current, m.soc, m.temperature, m.estop, m.motor_relay}) {
+    if (a < 0 || a > 65535) {
+      *error = "power board register map: address " + std::to_string(a) + " is outside 0..65535";
+      return false;
+    }
+  }
+  const int lo = std::min({m.voltage, m.current, m.soc, m.temperature});
+  const int hi = std::max({m.voltage, m.current, m.soc, m.temperature});
+  if (hi - lo + 1 > kMaxReadRegisters) {
+    *error = "power board register map: the input registers span " + std::to_string(lo) + ".." + std::to_string(hi) + " (" +
+             std::to_string(hi - lo + 1) + " registers); one Modbus read holds at most " + std::to_string(kMaxReadRegisters) +
+             ", so it could never be polled";
+    return false;
+  }
+  return true;
+}
+
+namespace {
+// A decimal integer in [lo, hi], the whole string: no exceptions (std::stoi throws on
+// "abc" and out-of-range, and accepts "502abc").
+std::optional<int> parse_int(std::string_view text, int lo, int hi) {
+  int v = 0;
+  const char* end = text.data() + text.size();
+  const auto [p, ec] = std::from_chars(text.data(), end, v);
+  if (text.empty() || ec != std::errc() || p != end || v < lo || v > hi) return std::nullopt;
+  return v;
+}
+}  // namespace
+
 std::unique_ptr<PowerBoard> PowerBoard::open(const std::string& uri, const RegisterMap& map, Nanos response_timeout,
                                              std::string* error) {
+  if (!validate_register_map(map, error)) return nullptr;
   modbus_t* ctx = nullptr;
   if (uri.rfind("tcp:", 0) == 0) {
     const std::string rest = uri.substr(4);
@@ -35,7 +73,12 @@ std::unique_ptr<PowerBoard> PowerBoard::open(const std::string& uri, const Regis
       *error = "'" + uri + "': expected tcp:HOST:PORT";
       return nullptr;
     }
-    ctx = modbus_new_tcp(rest.substr(0, c).c_str(), std::stoi(rest.substr(c + 1)));
+    const auto port = parse_int(std::string_view(rest).substr(c + 1), 1, 65535);
+    if (!port) {
+      *error = "'" + uri + "': the TCP port must be a number in 1..65535";
+      return nullptr;
+    }
+    ctx = modbus_new_tcp(rest.substr(0, c).c_str(), *port);
   } else if (uri.rfind("rtu:", 0) == 0) {
     const std::string rest = uri.substr(4);
     const auto c = rest.rfind(':');
@@ -43,7 +86,12 @@ std::unique_ptr<PowerBoard> PowerBoard::open(const std::string& uri, const Regis
       *error = "'" + uri + "': expected rtu:DEVICE:BAUD";
       return nullptr;
     }
-    ctx = modbus_new_rtu(rest.substr(0, c).c_str(), std::stoi(rest.substr(c + 1)), 'N', 8, 1);
+    const auto baud = parse_int(std::string_view(rest).substr(c + 1), 1, 4'000'000);
+    if (!baud) {
+      *error = "'" + uri + "': the baud rate must be a positive number (e.g. 115200)";
+      return nullptr;
+    }
+    ctx = modbus_new_rtu(rest.substr(0, c).c_str(), *baud, 'N', 8, 1);
   } else {
     *error = "'" + uri + "': expected tcp:HOST:PORT or rtu:DEVICE:BAUD";
     return nullptr;
@@ -88,8 +136,9 @@ bool PowerBoard::poll(PowerState* out, std::string* error) {
   // One read covers the four registers when they are consecutive (the usual map).
   const int lo = std::min({map_.voltage, map_.current, map_.soc, map_.temperature});
   const int hi = std::max({map_.voltage, map_.current, map_.soc, map_.temperature});
-  std::uint16_t block[125];
-  if (hi - lo >= 125 || modbus_read_input_registers(ctx_, lo, hi - lo + 1, block) != hi - lo + 1) {
+  std::uint16_t block[kMaxReadRegisters];
+  // A span over kMaxReadRegisters is refused by validate_register_map(); kept as a guard.
+  if (hi - lo >= kMaxReadRegisters || modbus_read_input_registers(ctx_, lo, hi - lo + 1, block) != hi - lo + 1) {
     *error = uri_ + ": reading input registers: " + modbus_strerror(errno);
     note_failure();
     return false;

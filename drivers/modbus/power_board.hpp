@@ -16,9 +16,19 @@ typedef struct _modbus modbus_t;
 
 namespace cairn::modbus {
 
+/// Modbus caps one read of holding/input registers at 125 (MODBUS_MAX_READ_REGISTERS):
+/// the four input registers are polled in one read, so they must lie within 125
+/// consecutive addresses.
+inline constexpr int kMaxReadRegisters = 125;
+/// Whether `map` can be polled: slave 1..247, addresses 0..65535, four distinct input
+/// registers spanning at most kMaxReadRegisters. False with a clear reason.
+bool validate_register_map(const RegisterMap& map, std::string* error);
+
 class PowerBoard final : public PowerLink {
  public:
-  /// "tcp:HOST:PORT" or "rtu:DEVICE:BAUD" (8N1). Nullptr and a message on failure.
+  /// "tcp:HOST:PORT" or "rtu:DEVICE:BAUD" (8N1). Nullptr and a message on failure: a bad
+  /// URI (port 1..65535, a positive baud rate, digits only), an invalid register map
+  /// (validate_register_map), or no connection. Never throws for a bad URI.
   static std::unique_ptr<PowerBoard> open(const std::string& uri, const RegisterMap& map, Nanos response_timeout,
                                           std::string* error);
   ~PowerBoard();

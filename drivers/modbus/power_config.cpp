@@ -20,6 +20,8 @@ RegisterMap register_map_from_config(const ConfigSection& s) {
   m.temperature_scale = s.number_or("temperature_scale", m.temperature_scale, {1e-6, 1e3});
   const std::set<int> regs = {m.voltage, m.current, m.soc, m.temperature};
   if (regs.size() != 4) s.fail("voltage_register", "the four input registers must be distinct");
+  std::string why;
+  if (!validate_register_map(m, &why)) s.fail("voltage_register", why);
   return m;
 }
 

@@ -1,5 +1,6 @@
 #include "drivers/serial/sp_stream.hpp"
 
+#include <fcntl.h>
 #include <libserialport.h>
 
 #include <cerrno>
@@ -36,13 +37,12 @@ std::unique_ptr<SerialPortStream> SerialPortStream::open(const std::string& name
 SerialPortStream::~SerialPortStream() { close_port(); }
 
 void SerialPortStream::close_port() {
-  if (rx_events_) sp_free_event_set(rx_events_);
-  rx_events_ = nullptr;
   if (port_) {
     sp_close(port_);
     sp_free_port(port_);
   }
   port_ = nullptr;
+  fd_ = -1;
 }
 
 bool SerialPortStream::open_port(std::string* error) {
@@ -68,8 +68,15 @@ bool SerialPortStream::open_port(std::string* error) {
     close_port();
     return false;
   }
-  sp_new_event_set(&rx_events_);
-  sp_add_port_events(rx_events_, port_, SP_EVENT_RX_READY);
+  // Stream on the descriptor: poll()/read()/write() honour a zero timeout and allocate nothing.
+  int fd = -1;
+  const int flags = sp_get_port_handle(port_, &fd) == SP_OK && fd >= 0 ? fcntl(fd, F_GETFL) : -1;
+  if (flags < 0 || fcntl(fd, F_SETFL, flags | O_NONBLOCK) != 0) {
+    *error = "serial:" + name_ + ": no usable file descriptor from libserialport";
+    close_port();
+    return false;
+  }
+  fd_ = fd;
   return true;
 }
 
@@ -85,21 +92,12 @@ bool SerialPortStream::set_baud(std::uint32_t baud, std::string* error) {
 
 IoResult SerialPortStream::read(std::span<std::uint8_t> buffer, Nanos timeout) {
   if (!port_) return {IoResult::Status::kClosed, 0, EBADF};
-  if (sp_input_waiting(port_) <= 0) {
-    if (sp_wait(rx_events_, static_cast<unsigned int>(timeout_to_ms(timeout))) != SP_OK) return {IoResult::Status::kError, 0, errno};
-  }
-  const int n = sp_nonblocking_read(port_, buffer.data(), buffer.size());
-  if (n > 0) return {IoResult::Status::kOk, static_cast<std::size_t>(n), 0};
-  if (n == 0) return {IoResult::Status::kTimeout, 0, 0};
-  return {errno == EIO ? IoResult::Status::kClosed : IoResult::Status::kError, 0, errno};
+  return fd_read(fd_, buffer, timeout);
 }
 
 IoResult SerialPortStream::write(std::span<const std::uint8_t> bytes, Nanos timeout) {
   if (!port_) return {IoResult::Status::kClosed, 0, EBADF};
-  const int n = sp_blocking_write(port_, bytes.data(), bytes.size(), static_cast<unsigned int>(timeout_to_ms(timeout)));
-  if (n < 0) return {errno == EIO ? IoResult::Status::kClosed : IoResult::Status::kError, 0, errno};
-  if (static_cast<std::size_t>(n) < bytes.size()) return {IoResult::Status::kTimeout, static_cast<std::size_t>(n), 0};
-  return {IoResult::Status::kOk, static_cast<std::size_t>(n), 0};
+  return fd_write(fd_, bytes, timeout);
 }
 
 void SerialPortStream::flush_input() {

@@ -1,4 +1,9 @@
-// A real UART through libserialport (8N1, no flow control).
+// A real UART through libserialport (8N1, no flow control). libserialport finds, opens
+// and configures the port; streaming then works on its file descriptor
+// (sp_get_port_handle) with poll()/read()/write(), like TtyStream:
+//  - a zero timeout means "do not wait" (libserialport's sp_wait, sp_blocking_read and
+//    sp_blocking_write take 0 as "wait forever");
+//  - nothing allocates while streaming (sp_wait mallocs its pollfd array on every call).
 // Note: Debian's libserialport 0.1.1 cannot open a pty (it needs a sysfs tty), so this
 // backend is exercised for real in the VM bench; ptys use TtyStream (tty:).
 #pragma once
@@ -6,7 +11,6 @@
 #include "drivers/serial/byte_stream.hpp"
 
 struct sp_port;
-struct sp_event_set;
 
 namespace cairn::serial {
 
@@ -30,7 +34,7 @@ class SerialPortStream final : public ByteStream {
   std::string name_;
   std::uint32_t baud_;
   sp_port* port_ = nullptr;
-  sp_event_set* rx_events_ = nullptr;
+  int fd_ = -1;  // port_'s descriptor (owned by libserialport), non-blocking
 };
 
 }  // namespace cairn::serial

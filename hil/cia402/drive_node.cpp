@@ -171,8 +171,8 @@ void DriveNode::handle_sdo(const Frame& f) {
   };
   const std::uint8_t ccs = cmd >> 5;
   if (ccs == 3) {  // upload segment request (device name)
-    if (upload_.empty()) return send(sdo_abort(abort_cob, {}, 0x05040001));
-    if (static_cast<bool>(cmd & 0x10) != upload_toggle_) return send(sdo_abort(abort_cob, {}, 0x05030000));
+    if (upload_.empty()) return send(sdo_abort(abort_cob, {}, abort_code::kCommand));
+    if (static_cast<bool>(cmd & 0x10) != upload_toggle_) return send(sdo_abort(abort_cob, {}, abort_code::kToggleBit));
     const std::size_t n = std::min<std::size_t>(7, upload_.size() - upload_off_);
     const bool last = upload_off_ + n >= upload_.size();
     Frame r;
@@ -194,7 +194,7 @@ void DriveNode::handle_sdo(const Frame& f) {
   auto it = od_.find(key(a.index, a.sub));
   if (it == od_.end()) {
     const bool index_exists = std::any_of(od_.begin(), od_.end(), [&](const auto& e) { return (e.first >> 8) == a.index; });
-    return send(sdo_abort(abort_cob, a, index_exists ? 0x06090011 : 0x06020000));
+    return send(sdo_abort(abort_cob, a, index_exists ? abort_code::kSubUnknown : abort_code::kNotExist));
   }
   if (ccs == 2) {  // initiate upload
     const std::uint8_t n = it->second.size;
@@ -202,19 +202,19 @@ void DriveNode::handle_sdo(const Frame& f) {
     return respond(static_cast<std::uint8_t>(0x43 | ((4 - n) << 2)), it->second.value);
   }
   if (ccs == 1) {  // initiate download (expedited only)
-    if (!(cmd & 0x02)) return send(sdo_abort(abort_cob, a, 0x06010000));
-    if (!it->second.writable) return send(sdo_abort(abort_cob, a, 0x06010002));
+    if (!(cmd & 0x02)) return send(sdo_abort(abort_cob, a, abort_code::kUnsupportedAccess));
+    if (!it->second.writable) return send(sdo_abort(abort_cob, a, abort_code::kReadOnly));
     const std::uint8_t n = (cmd & 0x01) ? static_cast<std::uint8_t>(4 - ((cmd >> 2) & 3)) : 4;
-    if (n != it->second.size) return send(sdo_abort(abort_cob, a, 0x06070010));
+    if (n != it->second.size) return send(sdo_abort(abort_cob, a, abort_code::kTypeMismatch));
     std::uint32_t v = 0;
     for (int i = 0; i < n; ++i) v |= static_cast<std::uint32_t>(f.data[4 + i]) << (8 * i);
-    if (a.index == 0x6060 && v != 3 && v != 9 && v != 0) return send(sdo_abort(abort_cob, a, 0x06090030));
+    if (a.index == 0x6060 && v != 3 && v != 9 && v != 0) return send(sdo_abort(abort_cob, a, abort_code::kInvalidValue));
     it->second.value = v;
     if (a.index == 0x6040) handle_controlword(static_cast<std::uint16_t>(v));
     if (a.index == 0x6060) set_od(0x6061, 0, v);
     return respond(0x60, 0);
   }
-  send(sdo_abort(abort_cob, a, 0x05040001));
+  send(sdo_abort(abort_cob, a, abort_code::kCommand));
 }
 
 void DriveNode::send_tpdo(int k) {

@@ -2,6 +2,8 @@
 
 #include "hil/lms2xx/scan_synth.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 
@@ -199,11 +201,20 @@ void LmsDevice::queue_scan(Nanos now) {
   const std::uint16_t word = static_cast<std::uint16_t>(n | (units << 14));
   data[0] = static_cast<std::uint8_t>(word & 0xFF);
   data[1] = static_cast<std::uint8_t>(word >> 8);
+  // The host's view of each value, for the scan's fingerprint (no allocation: fixed arrays).
+  const int bits = range_bits(config_.measuring_mode());
+  const std::uint32_t field_max = bits >= 16 ? 0xFFFF : ((1u << bits) - 1);
+  const std::uint32_t unit_mm = config_.units() == 1 ? 1 : (config_.units() == 2 ? 100 : 10);
+  std::array<std::uint16_t, kMaxBeams> host_mm{};
+  std::array<std::uint8_t, kMaxBeams> host_flags{};
   for (int i = 0; i < n; ++i) {
     const BeamSample& b = beams[static_cast<std::size_t>(i)];
     const std::uint16_t v = encode_range(b.range_m, b.hit, b.reflective);
     data[2 + 2 * i] = static_cast<std::uint8_t>(v & 0xFF);
     data[3 + 2 * i] = static_cast<std::uint8_t>(v >> 8);
+    const std::uint32_t field = v & field_max;
+    host_mm[static_cast<std::size_t>(i)] = static_cast<std::uint16_t>(field == field_max ? 0 : std::min<std::uint32_t>(field * unit_mm, 0xFFFF));
+    host_flags[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(bits >= 16 ? 0 : (v >> bits));
   }
   std::uint8_t payload[2 + 2 * kMaxBeams + 1];
   std::memcpy(payload, data, static_cast<std::size_t>(2 + 2 * n));
@@ -216,6 +227,7 @@ void LmsDevice::queue_scan(Nanos now) {
   s.bytes = f.size;
   s.sensor_pose = sensor;
   s.first_byte = popped_ + tx_.size();
+  s.fingerprint = scan_fingerprint(static_cast<std::size_t>(n), host_mm.data(), host_flags.data());
   sent_.push_back(s);
   if (sent_.size() > 1000) sent_.pop_front();
   queue(f);

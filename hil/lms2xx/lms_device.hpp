@@ -45,7 +45,24 @@ struct SentScan {
   std::uint64_t first_byte = 0; // index of its STX in the device's output byte stream
   std::size_t bytes = 0;
   Pose2 sensor_pose;
+  // Identity of its content as a host decodes it (ranges in mm, 0 = no echo, and flags):
+  // with range noise every scan differs, so tests match received scans to sent ones by
+  // this, not by time.
+  std::uint64_t fingerprint = 0;
 };
+
+/// FNV-1a over a scan's decoded ranges (mm, 0 = no echo) and flags: what SentScan holds,
+/// and what a test computes from a driver's LmsScan.
+inline std::uint64_t scan_fingerprint(std::size_t count, const std::uint16_t* range_mm, const std::uint8_t* flags) {
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](std::uint8_t b) { h = (h ^ b) * 1099511628211ull; };
+  for (std::size_t i = 0; i < count; ++i) {
+    mix(static_cast<std::uint8_t>(range_mm[i]));
+    mix(static_cast<std::uint8_t>(range_mm[i] >> 8));
+    mix(flags[i]);
+  }
+  return h;
+}
 
 class LmsDevice {
  public:

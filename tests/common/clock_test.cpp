@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <thread>
 
 namespace cairn {
@@ -41,12 +42,38 @@ TEST(SimClock, SleepersWakeOnlyWhenTimeAdvances) {
   EXPECT_EQ(clock.now(), 1000);
 }
 
+// Waits (real time, bounded) for `flag`; false if it did not come.
+bool wait_for(const std::atomic<bool>& flag, std::chrono::milliseconds limit) {
+  const auto end = std::chrono::steady_clock::now() + limit;
+  while (!flag.load() && std::chrono::steady_clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  return flag.load();
+}
+
 TEST(SimClock, CloseReleasesSleepers) {
   SimClock clock;
-  std::thread t([&] { clock.sleep_until(kNanosPerSecond * 1000); });
+  std::atomic<bool> returned{false};
+  std::thread t([&] {
+    clock.sleep_until(kNanosPerSecond * 1000);
+    returned = true;
+  });
+  EXPECT_FALSE(wait_for(returned, std::chrono::milliseconds(20))) << "the sleeper did not sleep";
   clock.close();
+  const bool released = wait_for(returned, std::chrono::seconds(2));
+  const Nanos at_release = clock.now();
+  if (!released) clock.set(kNanosPerSecond * 1000);  // let the thread go, so the failure is a failure, not a hang
   t.join();
-  SUCCEED();
+  EXPECT_TRUE(released) << "close() did not release the sleeper";
+  EXPECT_EQ(at_release, 0) << "released by close(), not by time";
+  // After close(), a new sleeper returns at once too.
+  std::atomic<bool> late{false};
+  std::thread t2([&] {
+    clock.sleep_until(kNanosPerSecond * 2000);
+    late = true;
+  });
+  const bool late_released = wait_for(late, std::chrono::seconds(2));
+  if (!late_released) clock.set(kNanosPerSecond * 2000);
+  t2.join();
+  EXPECT_TRUE(late_released) << "a sleeper after close() blocked";
 }
 
 }  // namespace

@@ -96,7 +96,7 @@ TEST(CanopenSdo, ResponsesDecode) {
   EXPECT_EQ(r.value, 20u);
   r = decode_sdo_response(reply({0x80, 0x00, 0x20, 0x00, 0x00, 0x00, 0x02, 0x06}));
   EXPECT_EQ(r.type, SdoResponse::Type::kAbort);
-  EXPECT_EQ(r.abort_code, 0x06020000u);
+  EXPECT_EQ(r.abort_code, abort_code::kNotExist);
   EXPECT_STREQ(sdo_abort_text(r.abort_code), "object does not exist in the object dictionary");
   r = decode_sdo_response(reply({0x1B, 0x4C, 0x4D, 0, 0, 0, 0, 0}));  // toggle 1, n = 5 unused (2 bytes), last
   EXPECT_EQ(r.type, SdoResponse::Type::kUploadSegment);
@@ -106,6 +106,32 @@ TEST(CanopenSdo, ResponsesDecode) {
   Frame short_frame = reply({0x60});
   short_frame.len = 3;
   EXPECT_EQ(decode_sdo_response(short_frame).type, SdoResponse::Type::kInvalid);
+}
+
+// The named abort codes are CiA 301's values (pinned here against the standard's table, the
+// only place raw codes appear), each named once, each with its text.
+TEST(CanopenCodec, AbortCodesAreTheCia301Values) {
+  EXPECT_EQ(abort_code::kToggleBit, 0x05030000u);
+  EXPECT_EQ(abort_code::kTimeout, 0x05040000u);
+  EXPECT_EQ(abort_code::kCommand, 0x05040001u);
+  EXPECT_EQ(abort_code::kUnsupportedAccess, 0x06010000u);
+  EXPECT_EQ(abort_code::kReadOnly, 0x06010002u);
+  EXPECT_EQ(abort_code::kNotExist, 0x06020000u);
+  EXPECT_EQ(abort_code::kTypeMismatch, 0x06070010u);
+  EXPECT_EQ(abort_code::kDataTooLong, 0x06070012u);
+  EXPECT_EQ(abort_code::kSubUnknown, 0x06090011u);
+  EXPECT_EQ(abort_code::kInvalidValue, 0x06090030u);
+  EXPECT_EQ(abort_code::kGeneral, 0x08000000u);
+  EXPECT_EQ(abort_code::kNoData, 0x08000024u);
+  for (std::size_t i = 0; i < kAbortCodeTexts.size(); ++i) {
+    EXPECT_STRNE(sdo_abort_text(kAbortCodeTexts[i].code), "unknown abort code") << std::hex << kAbortCodeTexts[i].code;
+    EXPECT_STREQ(sdo_abort_text(kAbortCodeTexts[i].code), kAbortCodeTexts[i].text);
+    for (std::size_t j = i + 1; j < kAbortCodeTexts.size(); ++j) EXPECT_NE(kAbortCodeTexts[i].code, kAbortCodeTexts[j].code);
+  }
+  EXPECT_STREQ(sdo_abort_text(0x12345678), "unknown abort code");
+  // On the wire: little-endian in bytes 4..7.
+  const Frame f = sdo_abort(0x601, {0x2000, 1}, abort_code::kNotExist);
+  EXPECT_EQ(bytes(f), (std::vector<int>{0x80, 0x00, 0x20, 0x01, 0x00, 0x00, 0x02, 0x06}));
 }
 
 TEST(CanopenSdo, SegmentedRequests) {

@@ -125,6 +125,60 @@ class Bench {
   std::atomic<bool> running_{false};
 };
 
+// Received scans identified by content (SentScan::fingerprint): for each of the sink's
+// scans from `first` on, the emulator's scan it is (nullptr if none, or if two sent scans
+// share the fingerprint). The copies are taken under the device's lock.
+struct Identified {
+  std::vector<hil::SentScan> sent;        // the emulator's record, oldest first
+  std::vector<const hil::SentScan*> of;   // per received scan
+  std::vector<lms::LmsScan> got;
+  /// Sent indices between the first and the last identified scan that never arrived.
+  std::vector<std::uint32_t> missing() const {
+    std::vector<std::uint32_t> idx;
+    for (const auto* s : of) {
+      if (s) idx.push_back(s->index);
+    }
+    std::vector<std::uint32_t> out;
+    for (std::size_t i = 1; i < idx.size(); ++i) {
+      for (std::uint32_t k = idx[i - 1] + 1; k < idx[i]; ++k) out.push_back(k);
+    }
+    return out;
+  }
+  bool in_order() const {
+    std::uint32_t last = 0;
+    for (const auto* s : of) {
+      if (!s) return false;
+      if (s->index <= last) return false;
+      last = s->index;
+    }
+    return true;
+  }
+};
+Identified identify(Bench& b, std::size_t first) {
+  Identified r;
+  {
+    std::lock_guard l(b.sink_.m);
+    r.got.assign(b.sink_.scans.begin() + static_cast<long>(std::min(first, b.sink_.scans.size())), b.sink_.scans.end());
+  }
+  b.server_.with_device([&](hil::LmsDevice& d) {
+    r.sent.assign(d.sent_scans().begin(), d.sent_scans().end());
+    return 0;
+  });
+  for (const auto& g : r.got) {
+    const std::uint64_t fp = hil::scan_fingerprint(g.count, g.range_mm.data(), g.flags.data());
+    const hil::SentScan* match = nullptr;
+    int matches = 0;
+    for (const auto& s : r.sent) {
+      if (s.fingerprint == fp) {
+        match = &s;
+        ++matches;
+      }
+    }
+    r.of.push_back(matches == 1 ? match : nullptr);
+  }
+  return r;
+}
+
 TEST(LmsDriver, PowerOnToStreamingFromEveryStartBaud) {
   SKIP_UNLESS_PTY_CARRIES_500K();
   for (std::uint32_t start : {9600u, 19200u, 38400u, 500000u}) {
@@ -175,19 +229,41 @@ TEST(LmsDriver, EveryInjectedFaultIsSurvivedCountedAndRecovered) {
   b.start_io();
   ASSERT_GT(b.wait_streaming(5, 5s), 0) << b.reason();
 
+  // Each fault's window of received scans starts with the last scan before it, so a scan
+  // lost right after the injection is a gap inside the window.
+  auto window_start = [&] { return b.sink_.count() - 1; };
+  // Garbage between telegrams: the driver resynchronises and loses no scan.
+  std::size_t from = window_start();
+  const auto garbage_crc = b.counters().crc_errors;
   b.server_.inject_garbage(300);
   EXPECT_GT(b.wait_streaming(5, 2s), 0) << "after garbage: " << b.reason();
   EXPECT_GE(b.counters().resyncs, 1u);
+  Identified id = identify(b, from);
+  EXPECT_TRUE(id.in_order()) << "a scan that is none the emulator sent, or out of order";
+  EXPECT_TRUE(id.missing().empty()) << id.missing().size() << " scan(s) lost to garbage between telegrams";
+  EXPECT_EQ(b.counters().crc_errors, garbage_crc) << "garbage outside telegrams is no CRC error";
 
+  // One telegram with a flipped CRC byte: exactly that scan is lost, counted once.
+  from = window_start();
   const auto crc0 = b.counters().crc_errors;
   b.server_.corrupt_next_crc();
   EXPECT_GT(b.wait_streaming(5, 2s), 0) << "after a flipped CRC: " << b.reason();
-  EXPECT_GE(b.counters().crc_errors, crc0 + 1);
+  EXPECT_EQ(b.counters().crc_errors, crc0 + 1);
+  id = identify(b, from);
+  EXPECT_TRUE(id.in_order());
+  EXPECT_EQ(id.missing().size(), 1u) << "the corrupted telegram, and only it";
 
+  // One telegram 20 bytes short: its LEN runs into the next telegram, so its CRC fails
+  // (counted once); the parser rescans from the byte after the bad STX and finds the next
+  // telegram intact. Exactly that scan is lost.
+  from = window_start();
   const auto crc1 = b.counters().crc_errors;
   b.server_.drop_bytes(20);
   EXPECT_GT(b.wait_streaming(5, 2s), 0) << "after dropped bytes: " << b.reason();
-  EXPECT_GE(b.counters().crc_errors + b.counters().resyncs, crc1 + 1);
+  EXPECT_EQ(b.counters().crc_errors, crc1 + 1);
+  id = identify(b, from);
+  EXPECT_TRUE(id.in_order());
+  EXPECT_EQ(id.missing().size(), 1u) << "the shortened telegram, and only it";
 
   // Unplugged for a second: the driver notices, searches, and streams again once replugged.
   const auto timeouts = b.counters().timeouts;
@@ -225,21 +301,25 @@ TEST(LmsDriver, BaudAwareTimestampsMatchTheEmulatorsLineTimes) {
   b.start_io();
   ASSERT_GT(b.wait_streaming(100, 10s), 0) << b.reason();
   b.stop_io();
+  // Each received scan is matched to the scan the emulator sent by content (fingerprint),
+  // not to the sent scan nearest in time: an error of a whole scan period (27 ms) or more
+  // cannot hide as a match to the neighbouring scan.
+  const Identified id = identify(b, 0);
+  ASSERT_GE(id.got.size(), 100u);
   std::vector<double> errors_us;
-  std::lock_guard l(b.sink_.m);
-  b.server_.with_device([&](hil::LmsDevice& d) {
-    // Match scans by content: the emulator's ranges are noisy, so match each driver scan to
-    // the sent scan whose line time is nearest (they come at ~37 Hz, 27 ms apart).
-    for (const auto& s : b.sink_.scans) {
-      double best = 1e18;
-      for (const auto& sent : d.sent_scans()) {
-        if (sent.tx_start < 0) continue;
-        best = std::min(best, std::abs(static_cast<double>(s.first_byte_time - sent.tx_start)) / 1e3);
-      }
-      errors_us.push_back(best);
+  std::size_t unmatched = 0;
+  for (std::size_t i = 0; i < id.got.size(); ++i) {
+    const hil::SentScan* sent = id.of[i];
+    if (!sent || sent->tx_start < 0) {
+      ++unmatched;
+      continue;
     }
-    return 0;
-  });
+    errors_us.push_back(std::abs(static_cast<double>(id.got[i].first_byte_time - sent->tx_start)) / 1e3);
+  }
+  EXPECT_EQ(unmatched, 0u) << "received scans the emulator has no (unique) record of";
+  EXPECT_TRUE(id.in_order());
+  EXPECT_TRUE(id.missing().empty()) << id.missing().size() << " scans lost while streaming without faults";
+  ASSERT_FALSE(errors_us.empty());
   std::sort(errors_us.begin(), errors_us.end());
   const double p50 = errors_us[errors_us.size() / 2], p99 = errors_us[errors_us.size() * 99 / 100];
   std::printf("first-byte time error vs the emulator's line time (%zu scans at 500 kBd): p50 %.0f us, p99 %.0f us\n",

@@ -85,6 +85,51 @@ TEST(PowerBoard, ErrorsAreClearAndCounted) {
   EXPECT_FALSE(modbus::decode_power(regs, false, {}, &s));
 }
 
+// A malformed port or baud rate is a clear error, not an exception out of std::stoi.
+TEST(PowerBoard, BadPortOrBaudIsAClearErrorNotAThrow) {
+  for (const char* uri : {"tcp:127.0.0.1:notaport", "tcp:127.0.0.1:", "tcp:127.0.0.1:99999999999", "tcp:127.0.0.1:70000",
+                          "tcp:127.0.0.1:0", "tcp:127.0.0.1:-5", "tcp:127.0.0.1:502x"}) {
+    std::string err;
+    std::unique_ptr<modbus::PowerBoard> b;
+    EXPECT_NO_THROW(b = modbus::PowerBoard::open(uri, {}, 100 * kNanosPerMilli, &err)) << uri;
+    EXPECT_EQ(b, nullptr) << uri;
+    EXPECT_NE(err.find("the TCP port must be a number in 1..65535"), std::string::npos) << uri << ": " << err;
+  }
+  for (const char* uri : {"rtu:/dev/ttyUSB0:fast", "rtu:/dev/ttyUSB0:", "rtu:/dev/ttyUSB0:0", "rtu:/dev/ttyUSB0:1e9"}) {
+    std::string err;
+    std::unique_ptr<modbus::PowerBoard> b;
+    EXPECT_NO_THROW(b = modbus::PowerBoard::open(uri, {}, 100 * kNanosPerMilli, &err)) << uri;
+    EXPECT_EQ(b, nullptr) << uri;
+    EXPECT_NE(err.find("the baud rate must be a positive number"), std::string::npos) << uri << ": " << err;
+  }
+}
+
+// One poll reads the four input registers in one request, and Modbus allows at most 125
+// registers per read: a map spanning more is refused up front, not failed at every poll.
+TEST(PowerBoard, RegisterMapSpanningMoreThanOneReadIsRefused) {
+  modbus::RegisterMap wide;
+  wide.voltage = 0;
+  wide.temperature = 125;  // 0..125: 126 registers
+  std::string err;
+  EXPECT_FALSE(modbus::validate_register_map(wide, &err));
+  EXPECT_NE(err.find("span 0..125 (126 registers); one Modbus read holds at most 125"), std::string::npos) << err;
+  hil::PowerEmulator wide_emu(hil::PowerEmulator::Link::kTcp, wide, {});
+  EXPECT_EQ(modbus::PowerBoard::open(wide_emu.uri(), wide, 100 * kNanosPerMilli, &err), nullptr);
+  EXPECT_NE(err.find("could never be polled"), std::string::npos) << err;
+  // Exactly 125 is the protocol's limit, valid, and polls.
+  modbus::RegisterMap edge;
+  edge.voltage = 0;
+  edge.temperature = 124;
+  err.clear();
+  EXPECT_TRUE(modbus::validate_register_map(edge, &err)) << err;
+  hil::PowerEmulator emu(hil::PowerEmulator::Link::kTcp, edge, {});
+  auto board = modbus::PowerBoard::open(emu.uri(), edge, 100 * kNanosPerMilli, &err);
+  ASSERT_TRUE(board) << err;
+  modbus::PowerState s;
+  EXPECT_TRUE(board->poll(&s, &err)) << err;
+  EXPECT_NEAR(s.soc, 90.0, 0.2);
+}
+
 TEST(PowerBoard, EstopDisablesTheDrivesWithinOneControlPeriod) {
   // Drives on the user-space CAN bus, enabled and moving.
   can::Hub hub("/tmp/cairn-estop-test-" + std::to_string(getpid()));
@@ -177,6 +222,16 @@ TEST(PowerBoard, RegisterMapFromConfig) {
   EXPECT_NO_THROW(doc.finish());
   auto dup = ConfigDocument::parse("[power]\nvoltage_register = 1\n", "robot.toml");  // collides with current (1)
   EXPECT_THROW(modbus::register_map_from_config(dup.root().section("power")), ConfigError);
+  // Registers 0..125 cannot be read in one Modbus request: refused with the reason.
+  auto wide = ConfigDocument::parse("[power]\nvoltage_register = 0\ntemperature_register = 125\n", "robot.toml");
+  try {
+    modbus::register_map_from_config(wide.root().section("power"));
+    ADD_FAILURE() << "a map spanning 126 registers was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("one Modbus read holds at most 125"), std::string::npos) << e.what();
+  }
+  auto edge = ConfigDocument::parse("[power]\nvoltage_register = 0\ntemperature_register = 124\n", "robot.toml");
+  EXPECT_NO_THROW(modbus::register_map_from_config(edge.root().section("power")));
 }
 
 }  // namespace

@@ -67,16 +67,16 @@ TEST(SdoClient, AbortsAreDecoded) {
   SdoClient c(3, 50 * kNanosPerMilli, 2);
   ASSERT_TRUE(c.upload({0x2000, 0}));
   ASSERT_EQ(run(c, node, &now), SdoClient::Status::kFailed);
-  EXPECT_EQ(c.abort_code(), 0x06020000u);
+  EXPECT_EQ(c.abort_code(), abort_code::kNotExist);
   EXPECT_STREQ(c.error(), "object does not exist in the object dictionary");
   c.reset();
   ASSERT_TRUE(c.download_u32({0x6041, 0}, 1, 2));  // statusword is read-only
   ASSERT_EQ(run(c, node, &now), SdoClient::Status::kFailed);
-  EXPECT_EQ(c.abort_code(), 0x06010002u);
+  EXPECT_EQ(c.abort_code(), abort_code::kReadOnly);
   c.reset();
   ASSERT_TRUE(c.download_u32({0x6060, 0}, 7, 1));  // a mode the drive does not support
   ASSERT_EQ(run(c, node, &now), SdoClient::Status::kFailed);
-  EXPECT_EQ(c.abort_code(), 0x06090030u);
+  EXPECT_EQ(c.abort_code(), abort_code::kInvalidValue);
 }
 
 TEST(SdoClient, SilentNodeTimesOutAfterRetries) {
@@ -86,8 +86,27 @@ TEST(SdoClient, SilentNodeTimesOutAfterRetries) {
   SdoClient c(3, 20 * kNanosPerMilli, 2);
   ASSERT_TRUE(c.upload({0x1000, 0}));
   ASSERT_EQ(run(c, node, &now, 200), SdoClient::Status::kFailed);
-  EXPECT_EQ(c.abort_code(), 0x05040000u);  // SDO protocol timed out
+  EXPECT_EQ(c.abort_code(), abort_code::kTimeout);  // SDO protocol timed out
   EXPECT_EQ(c.timeouts(), 3u);             // first try + 2 retries
+}
+
+TEST(SdoClient, ExtendedOrRemoteFrameOnTheResponseIdIsIgnored) {
+  Nanos now = 0;
+  hil::DriveNode node = booted_node(&now);
+  SdoClient c(3, 50 * kNanosPerMilli, 2);
+  ASSERT_TRUE(c.upload({0x1000, 0}));
+  ASSERT_TRUE(c.poll(now += kNanosPerMilli));  // the request is out
+  Frame junk;
+  junk.len = 8;
+  junk.id = 0x583 | Frame::kExtended;  // low 11 bits: node 3's SDO response
+  c.on_frame(junk, now);
+  junk.id = 0x583 | Frame::kRemote;
+  c.on_frame(junk, now);
+  EXPECT_EQ(c.status(), SdoClient::Status::kBusy) << c.error();
+  c.reset();
+  ASSERT_TRUE(c.upload({0x1000, 0}));
+  ASSERT_EQ(run(c, node, &now), SdoClient::Status::kDone);
+  EXPECT_EQ(c.value(), 0xFFFF0192u);
 }
 
 // A minimal SDO server that accepts segmented downloads, to check the client's side of them.
@@ -119,6 +138,61 @@ TEST(SdoClient, SegmentedDownload) {
   }
   EXPECT_EQ(c.status(), SdoClient::Status::kDone);
   EXPECT_EQ(received, text);
+}
+
+// The server acknowledges a segment with the wrong toggle: the client fails the transfer
+// AND tells the server (CiA 301: abort 0x05030000 on the client's request COB-ID).
+TEST(SdoClient, DownloadToggleErrorSendsTheAbort) {
+  SdoClient c(5, 50 * kNanosPerMilli, 1);
+  const std::string text = "robot-7 left wheel";
+  ASSERT_TRUE(c.download({0x1008, 0}, {reinterpret_cast<const std::uint8_t*>(text.data()), text.size()}));
+  Nanos now = kNanosPerMilli;
+  auto init = c.poll(now);
+  ASSERT_TRUE(init);
+  Frame ack;
+  ack.id = 0x585;
+  ack.len = 8;
+  ack.data[0] = 0x60;  // initiate download response
+  c.on_frame(ack, now);
+  auto seg = c.poll(now += kNanosPerMilli);
+  ASSERT_TRUE(seg);
+  ASSERT_EQ(seg->data[0] >> 5, 0) << "first segment";
+  ASSERT_FALSE(seg->data[0] & 0x10) << "first segment has toggle 0";
+  ack.data[0] = 0x20 | 0x10;  // segment ack with toggle 1: wrong
+  c.on_frame(ack, now);
+  EXPECT_EQ(c.status(), SdoClient::Status::kFailed);
+  EXPECT_EQ(c.abort_code(), abort_code::kToggleBit);
+  const auto abort = c.poll(now += kNanosPerMilli);
+  ASSERT_TRUE(abort) << "the queued abort must go out";
+  EXPECT_EQ(abort->id, 0x605u);
+  const SdoResponse r = decode_sdo_response(*abort);  // same layout in both directions
+  EXPECT_EQ(r.type, SdoResponse::Type::kAbort);
+  EXPECT_EQ(r.abort_code, abort_code::kToggleBit);
+  EXPECT_EQ(r.address.index, 0x1008);
+  EXPECT_FALSE(c.poll(now += kNanosPerMilli)) << "sent once";
+}
+
+TEST(SdoClient, UploadToggleErrorSendsTheAbort) {
+  SdoClient c(5, 50 * kNanosPerMilli, 1);
+  ASSERT_TRUE(c.upload({0x1008, 0}));
+  Nanos now = kNanosPerMilli;
+  ASSERT_TRUE(c.poll(now));
+  Frame r;
+  r.id = 0x585;
+  r.len = 8;
+  r.data = {0x41, 0x08, 0x10, 0x00, 20, 0, 0, 0};  // segmented upload, 20 bytes
+  c.on_frame(r, now);
+  auto req = c.poll(now += kNanosPerMilli);
+  ASSERT_TRUE(req);
+  ASSERT_EQ(req->data[0], 0x60) << "upload segment request, toggle 0";
+  r.data = {0x10, 'a', 'b', 'c', 'd', 'e', 'f', 'g'};  // toggle 1: wrong
+  c.on_frame(r, now);
+  EXPECT_EQ(c.status(), SdoClient::Status::kFailed);
+  EXPECT_EQ(c.abort_code(), abort_code::kToggleBit);
+  const auto abort = c.poll(now += kNanosPerMilli);
+  ASSERT_TRUE(abort) << "the client aborts the transfer on the bus";
+  EXPECT_EQ(abort->id, 0x605u);
+  EXPECT_EQ(decode_sdo_response(*abort).abort_code, abort_code::kToggleBit);
 }
 
 }  // namespace

@@ -1,6 +1,9 @@
 // Test support: counts heap allocations made by the calling thread while counting is on.
-// Linking alloc_counter.cpp into a test binary replaces the global operator new/delete
-// and malloc/calloc/realloc with counting versions (forwarding to glibc).
+// Linking alloc_counter.cpp into a test binary replaces every allocation function with a
+// counting version forwarding to glibc: malloc, calloc, realloc, reallocarray,
+// posix_memalign, aligned_alloc, memalign, valloc, pvalloc, and every replaceable
+// operator new / new[] (plain, nothrow, align_val_t, align_val_t + nothrow; the matching
+// deletes free). alloc_counter_test proves each one counts.
 #pragma once
 
 #include <cstdint>
