@@ -1,6 +1,6 @@
 // Real multi-robot data (UTIAS MRCLAM, ../shared/datasets/mrclam): cooperative CML
 // against single-robot EKF-SLAM and dead reckoning, and the reader's error handling.
-#include "basestation/ccml/mrclam.hpp"
+#include "tools/datasets/mrclam.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "basestation/ccml/mrclam.hpp"
+#include "tools/datasets/mrclam.hpp"
 
 #include <algorithm>
 #include <chrono>
