@@ -23,7 +23,7 @@ set(CPACK_COMPONENTS_ALL robot)
 
 if(CAIRN_HOST_ONLY_PARTS)
   install(TARGETS cairn-base RUNTIME DESTINATION bin COMPONENT base)
-  if(TARGET cairn-eval)  # built with the tests (tests/eval)
+  if(TARGET cairn-eval)  # tools/eval: built with the host-only parts
     install(TARGETS cairn-eval RUNTIME DESTINATION bin COMPONENT base)
   endif()
   install(FILES config/base.toml DESTINATION /etc/cairn COMPONENT base)

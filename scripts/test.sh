@@ -22,11 +22,11 @@ if ((quick == 0)); then
   scripts/build.sh asan
   echo "== test: unit and integration tests under ASan + UBSan"
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-    ctest --preset asan -j2 -LE 'bench|slow|packaging'
+    ctest --preset asan -j2 -LE 'bench|slow|packaging|layers'
   echo "== test: build (tsan preset: ThreadSanitizer, -Werror)"
   scripts/build.sh tsan
   echo "== test: unit and integration tests under TSan"
-  TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1" ctest --preset tsan -j2 -LE 'bench|slow|packaging'
+  TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1" ctest --preset tsan -j2 -LE 'bench|slow|packaging|layers'
   echo "== test: fuzz targets (clang libFuzzer + ASan/UBSan), 30 s each"
   scripts/fuzz.sh 30
   echo "== test: cross-build the robot side for aarch64 (-Werror); its tests and package under qemu-user"

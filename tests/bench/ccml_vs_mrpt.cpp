@@ -21,7 +21,7 @@
 #include <random>
 
 #include "basestation/ccml/filter.hpp"
-#include "basestation/ccml/mrclam.hpp"
+#include "tools/datasets/mrclam.hpp"
 
 using namespace cairn;
 using namespace cairn::ccml;

@@ -11,7 +11,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
-#include "tests/eval/scan_eval.hpp"
+#include "tools/eval/scan_eval.hpp"
 
 using namespace cairn;
 using namespace cairn::eval;

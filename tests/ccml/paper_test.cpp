@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "basestation/ccml/bounds.hpp"
-#include "basestation/ccml/paper_sim.hpp"
+#include "tools/paper_sim/paper_sim.hpp"
 
 namespace cairn::ccml {
 namespace {

@@ -6,7 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "tests/eval/carmen_log.hpp"
+#include "tools/datasets/carmen_log.hpp"
 #include "tests/support/subprocess.hpp"
 
 namespace cairn {

@@ -52,7 +52,7 @@ if command -v systemd-analyze >/dev/null; then
   done
 fi
 if grep -q CAIRN_HOST_ONLY_PARTS:BOOL=ON "$build/CMakeCache.txt"; then
-  expect cairn-base /usr/bin/cairn-base /etc/cairn/base.toml /lib/systemd/system/cairn-base.service
+  expect cairn-base /usr/bin/cairn-base /usr/bin/cairn-eval /etc/cairn/base.toml /lib/systemd/system/cairn-base.service
   expect cairn-hil /usr/bin/cairn-hil /usr/share/cairn/worlds/office.world /usr/share/cairn/hil/robot-hil.toml
 fi
 

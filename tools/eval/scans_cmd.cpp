@@ -2,8 +2,8 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
-#include "tests/eval/commands.hpp"
-#include "tests/eval/scan_eval.hpp"
+#include "tools/eval/commands.hpp"
+#include "tools/eval/scan_eval.hpp"
 
 namespace cairn::eval {
 

@@ -1,4 +1,4 @@
-#include "basestation/ccml/paper_sim.hpp"
+#include "tools/paper_sim/paper_sim.hpp"
 
 #include "basestation/ccml/bounds.hpp"
 

@@ -1,4 +1,4 @@
-#include "tests/eval/carmen_log.hpp"
+#include "tools/datasets/carmen_log.hpp"
 
 #include <zlib.h>
 

@@ -5,8 +5,8 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "basestation/ccml/mrclam.hpp"
-#include "tests/eval/commands.hpp"
+#include "tools/datasets/mrclam.hpp"
+#include "tools/eval/commands.hpp"
 
 namespace cairn::eval {
 

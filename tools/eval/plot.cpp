@@ -1,4 +1,4 @@
-#include "tests/eval/plot.hpp"
+#include "tools/eval/plot.hpp"
 
 #include <Eigen/Dense>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "tests/eval/scan_eval.hpp"
+#include "tools/eval/scan_eval.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>

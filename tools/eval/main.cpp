@@ -3,7 +3,7 @@
 #include <cstdio>
 #include <exception>
 
-#include "tests/eval/commands.hpp"
+#include "tools/eval/commands.hpp"
 
 int main(int argc, char** argv) {
   using namespace cairn::eval;

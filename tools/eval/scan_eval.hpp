@@ -9,7 +9,7 @@
 
 #include "common/se2.hpp"
 #include "firmware/localmap/local_mapper.hpp"
-#include "tests/eval/carmen_log.hpp"
+#include "tools/datasets/carmen_log.hpp"
 
 namespace cairn::eval {
 

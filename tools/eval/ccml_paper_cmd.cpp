@@ -5,9 +5,9 @@
 #include <nlohmann/json.hpp>
 
 #include "basestation/ccml/bounds.hpp"
-#include "basestation/ccml/paper_sim.hpp"
-#include "tests/eval/commands.hpp"
-#include "tests/eval/plot.hpp"
+#include "tools/eval/commands.hpp"
+#include "tools/eval/plot.hpp"
+#include "tools/paper_sim/paper_sim.hpp"
 
 namespace cairn::eval {
 
