@@ -207,6 +207,7 @@ void Executive::rt_thread() {
   rt_reports_[3] = "rt: " + apply_rt(cfg_.rt_loop);
   Clock& clock = clock_;
   LoopStats stats(cfg_.period);
+  WorkStats scan_work;
   if (hooks_.steady) hooks_.steady("rt");
   Nanos deadline = clock.now() + cfg_.period;
   const double dt = nanos_to_seconds(cfg_.period);
@@ -219,8 +220,10 @@ void Executive::rt_thread() {
     if (wheels_.read(&ws)) core_.on_wheels(ws);
     // Scans: at most two per wake (the laser makes < 1 per 10 ms); the rest wait.
     for (int k = 0; k < 2 && scan_q_.pop(scan_work_.get()); ++k) {
-      core_.on_scan(*scan_work_, clock.now(), outputs_);
+      const Nanos begin = clock.now();
+      core_.on_scan(*scan_work_, begin, outputs_);
       if (core_.mapper().rebuild_requested()) rebuild_event_.notify();  // a keyframe: the worker builds
+      scan_work.record(clock.now() - begin);
     }
     const Nanos wake = clock.now();
     if (wake < deadline) continue;
@@ -230,6 +233,8 @@ void Executive::rt_thread() {
     snap_.period_mean_us = static_cast<float>(stats.mean_us());
     snap_.period_p99_us = static_cast<float>(stats.p99_us());
     snap_.jitter_max_us = static_cast<float>(stats.max_jitter_us());
+    snap_.scan_work_p99_us = static_cast<float>(scan_work.p99_us());
+    snap_.scan_work_max_us = static_cast<float>(scan_work.max_us());
     snap_.cycles = stats.cycles();
     snap_.misses = stats.misses();
     rt_box_.write(snap_);

@@ -46,6 +46,7 @@ struct RtSnapshot {
   StopReason stop = StopReason::kDrivesNotReady;
   double v = 0, w = 0;
   float period_mean_us = 0, period_p99_us = 0, jitter_max_us = 0;
+  float scan_work_p99_us = 0, scan_work_max_us = 0;  // one scan's processing on the RT thread
   std::uint64_t cycles = 0, misses = 0, overflows = 0, scans = 0, matched = 0, stops = 0;
   std::uint64_t publish_drops = 0;
   bool estop = false;

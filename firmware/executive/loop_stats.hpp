@@ -48,4 +48,31 @@ class LoopStats {
   std::array<std::uint32_t, 10000> hist_{};
 };
 
+/// Durations of a piece of work (a scan's processing on the RT thread) without
+/// allocation: p99 from a fixed histogram (10 µs bins up to 20 ms) and the maximum.
+class WorkStats {
+ public:
+  void record(Nanos d) {
+    const auto bin = static_cast<std::size_t>(std::max<Nanos>(0, d) / kBin);
+    ++hist_[bin < hist_.size() ? bin : hist_.size() - 1];
+    if (d > max_) max_ = d;
+    ++n_;
+  }
+  double p99_us() const {
+    std::uint64_t need = (n_ * 99 + 99) / 100, seen = 0;
+    for (std::size_t i = 0; i < hist_.size(); ++i) {
+      seen += hist_[i];
+      if (seen >= need && n_) return static_cast<double>((static_cast<Nanos>(i) + 1) * kBin) / 1e3;
+    }
+    return 0.0;
+  }
+  double max_us() const { return static_cast<double>(max_) / 1e3; }
+
+ private:
+  static constexpr Nanos kBin = 10 * 1000;
+  Nanos max_ = 0;
+  std::uint64_t n_ = 0;
+  std::array<std::uint32_t, 2000> hist_{};
+};
+
 }  // namespace cairn::firmware

@@ -43,6 +43,9 @@ struct SentScan {
   Nanos sweep_start = 0;        // first beam measured
   Nanos tx_start = -1;          // when its first byte went on the wire (set by the server)
   std::uint64_t first_byte = 0; // index of its STX in the device's output byte stream
+  // When the write() holding its last byte began (the server's clock): a host cannot have
+  // the telegram earlier. Later than tx_start + bytes on the line when the server ran late.
+  Nanos last_byte_written = -1;
   std::size_t bytes = 0;
   Pose2 sensor_pose;
   // Identity of its content as a host decodes it (ranges in mm, 0 = no echo, and flags):

@@ -149,9 +149,10 @@ void LmsServer::serve_once(Nanos now) {
   if (budget == 0) return;
   // Stamp a scan's first byte with its ideal time on the line.
   const std::uint64_t first = device_->popped();
-  for (auto& s : device_->sent_scans()) {
-    if (s.tx_start < 0 && s.first_byte >= first && s.first_byte < first + budget) {
-      s.tx_start = tx_credit_time_ + static_cast<Nanos>(static_cast<double>(s.first_byte - first) / bytes_per_ns);
+  auto& sent = device_->sent_scans();
+  for (auto it = sent.rbegin(); it != sent.rend() && it->first_byte + it->bytes > first; ++it) {  // newest first
+    if (it->tx_start < 0 && it->first_byte >= first && it->first_byte < first + budget) {
+      it->tx_start = tx_credit_time_ + static_cast<Nanos>(static_cast<double>(it->first_byte - first) / bytes_per_ns);
     }
   }
   for (std::size_t i = 0; i < budget; ++i) {
@@ -163,8 +164,14 @@ void LmsServer::serve_once(Nanos now) {
   if (unplugged_ || fd_ < 0) return;  // bytes go nowhere
   // A full pty buffer drops bytes, as a UART overrun would; a TCP client that went away is
   // noticed by the next read (MSG_NOSIGNAL: no SIGPIPE for the process the bench runs in).
+  // Stamped before the write: a host reader woken by it can preempt this thread before
+  // the write returns, so a stamp taken after would come after the host's reaction.
+  const Nanos written = MonotonicClock::instance().now();
   const ssize_t w = link_ == Link::kTcp ? ::send(fd_, buf, budget, MSG_NOSIGNAL) : ::write(fd_, buf, budget);
   (void)w;
+  for (auto it = sent.rbegin(); it != sent.rend() && it->first_byte + it->bytes > first; ++it) {
+    if (it->last_byte_written < 0 && it->first_byte + it->bytes <= first + budget) it->last_byte_written = written;
+  }
 }
 
 void LmsServer::unplug(bool unplugged) { unplugged_ = unplugged; }
