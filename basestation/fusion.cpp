@@ -5,7 +5,6 @@
 #include <ostream>
 #include <stdexcept>
 
-#include "common/dds/topics.hpp"
 
 namespace cairn::base {
 
@@ -14,28 +13,28 @@ using ccml::Measurement;
 Fusion::Fusion(FusionConfig config) : config_(std::move(config)) {}
 
 namespace {
-bool finite_pose(const cairn_Pose2& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta); }
+bool finite_pose(const Pose2& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta); }
 template <std::size_t N>
-bool finite_all(const double (&a)[N]) {
+bool finite_all(const std::array<double, N>& a) {
   for (double v : a) {
     if (!std::isfinite(v)) return false;
   }
   return true;
 }
-Mat3 mat3(const double (&a)[9]) { return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(a); }
-Mat2 mat2(const double (&a)[4]) { return Eigen::Map<const Eigen::Matrix<double, 2, 2, Eigen::RowMajor>>(a); }
+Mat3 mat3(const msg::Cov3& a) { return msg::to_mat(a); }
+Mat2 mat2(const msg::Cov2& a) { return msg::to_mat(a); }
 }  // namespace
 
-bool Fusion::valid(const cairn_OdometryIncrement& m) {
+bool Fusion::valid(const msg::OdometryIncrement& m) {
   if (!finite_pose(m.delta) || !finite_pose(m.local_pose) || !finite_all(m.delta_cov)) return false;
   const Mat3 c = mat3(m.delta_cov);
   return c.diagonal().minCoeff() >= 0 && (c - c.transpose()).cwiseAbs().maxCoeff() < 1e-9;
 }
 
-bool Fusion::valid(const cairn_FeatureObservations& m) {
-  if (!finite_pose(m.local_pose) || m.n_features > cairn_MAX_FEATURES) return false;
-  for (int i = 0; i < m.n_features; ++i) {
-    const cairn_Feature& f = m.features[i];
+bool Fusion::valid(const msg::FeatureObservations& m) {
+  if (!finite_pose(m.local_pose) || m.n_features > msg::kMaxFeatures) return false;
+  for (std::size_t i = 0; i < m.n_features; ++i) {
+    const msg::Feature& f = m.features[i];
     if (!std::isfinite(f.range) || !std::isfinite(f.bearing) || f.range <= 0 || !finite_all(f.cov)) return false;
     const Mat2 c = mat2(f.cov);
     if (c(0, 0) <= 0 || c(1, 1) <= 0 || c.determinant() <= 0) return false;
@@ -60,12 +59,12 @@ Fusion::Track& Fusion::join(std::uint16_t robot, const Pose2& local_now) {
   return t;
 }
 
-Fusion::Result Fusion::on_odometry(const cairn_OdometryIncrement& m) {
+Fusion::Result Fusion::on_odometry(const msg::OdometryIncrement& m) {
   if (!valid(m)) {
     ++counters_.invalid_messages;
     return Result::kRejected;
   }
-  const Pose2 local = dds::from_msg(m.local_pose);
+  const Pose2 local = m.local_pose;
   Track& t = join(m.robot_id, local);
   if (!t.have_odometry) {
     // First increment: join() placed the robot at prior ⊕ this local pose; nothing to predict.
@@ -81,7 +80,7 @@ Fusion::Result Fusion::on_odometry(const cairn_OdometryIncrement& m) {
     ++counters_.odometry_duplicates;
     return Result::kDuplicate;
   }
-  Pose2 delta = dds::from_msg(m.delta);
+  Pose2 delta = m.delta;
   Mat3 cov = mat3(m.delta_cov);
   if (m.seq != t.odom_seq + 1) {
     // Missed increments: bridge with the robot's own local poses, uncertainty scaled by the gap.
@@ -98,7 +97,7 @@ Fusion::Result Fusion::on_odometry(const cairn_OdometryIncrement& m) {
   return Result::kApplied;
 }
 
-Fusion::Result Fusion::on_features(const cairn_FeatureObservations& m) {
+Fusion::Result Fusion::on_features(const msg::FeatureObservations& m) {
   if (!valid(m)) {
     ++counters_.invalid_messages;
     return Result::kRejected;
@@ -125,7 +124,7 @@ Fusion::Result Fusion::on_features(const cairn_FeatureObservations& m) {
   }
   Track& t = it->second;
   if (m.odom_seq < t.odom_seq) {
-    cairn_FeatureObservations late = m;
+    msg::FeatureObservations late = m;
     if (!reexpress(&late, t)) {
       ++counters_.feature_stale;
       return Result::kRejected;
@@ -141,7 +140,7 @@ Fusion::Result Fusion::on_features(const cairn_FeatureObservations& m) {
 void Fusion::drain_pending(std::uint16_t robot, Track& t) {
   (void)robot;
   while (!t.pending.empty() && t.pending.front().odom_seq <= t.odom_seq) {
-    const cairn_FeatureObservations m = t.pending.front();
+    const msg::FeatureObservations m = t.pending.front();
     t.pending.pop_front();
     if (t.have_features && m.seq <= t.feature_seq) {
       ++counters_.feature_duplicates;
@@ -157,7 +156,7 @@ void Fusion::remember(Track& t, const Mat3& cov) {
   while (t.cumulative.size() > config_.odometry_window) t.cumulative.pop_front();
 }
 
-bool Fusion::reexpress(cairn_FeatureObservations* m, const Track& t) const {
+bool Fusion::reexpress(msg::FeatureObservations* m, const Track& t) const {
   auto at = [&](std::uint32_t seq) -> const Mat3* {
     for (auto it = t.cumulative.rbegin(); it != t.cumulative.rend(); ++it) {
       if (it->first == seq) return &it->second;
@@ -169,9 +168,9 @@ bool Fusion::reexpress(cairn_FeatureObservations* m, const Track& t) const {
   if (!then || t.cumulative.empty()) return false;
   const Mat3 motion = t.cumulative.back().second - *then;  // odometry covariance accumulated since
   // T: the frame the features were observed in, seen from the robot's current local pose.
-  const Pose2 T = between(t.local, dds::from_msg(m->local_pose));
-  for (int i = 0; i < m->n_features; ++i) {
-    cairn_Feature& f = m->features[i];
+  const Pose2 T = between(t.local, m->local_pose);
+  for (std::size_t i = 0; i < m->n_features; ++i) {
+    msg::Feature& f = m->features[i];
     const RangeBearing z{f.range, f.bearing};
     const Vec2 p = point_from_observation({}, z);
     const Vec2 q = transform_point(T, p);
@@ -191,12 +190,12 @@ bool Fusion::reexpress(cairn_FeatureObservations* m, const Track& t) const {
     f.cov[1] = f.cov[2] = 0.5 * (Rz(0, 1) + Rz(1, 0));
     f.cov[3] = Rz(1, 1);
   }
-  m->local_pose = dds::to_msg(t.local);
+  m->local_pose = t.local;
   m->odom_seq = t.odom_seq;
   return true;
 }
 
-void Fusion::apply_features(const cairn_FeatureObservations& m, Track& t) {
+void Fusion::apply_features(const msg::FeatureObservations& m, Track& t) {
   t.have_features = true;
   t.feature_seq = m.seq;
   ++counters_.feature_messages_applied;
@@ -204,11 +203,11 @@ void Fusion::apply_features(const cairn_FeatureObservations& m, Track& t) {
   std::vector<Measurement> batch;
   std::vector<RangeBearing> lm_z;
   std::vector<Mat2> lm_R;
-  for (int i = 0; i < m.n_features; ++i) {
-    const cairn_Feature& f = m.features[i];
+  for (std::size_t i = 0; i < m.n_features; ++i) {
+    const msg::Feature& f = m.features[i];
     const RangeBearing z{f.range, normalize_angle(f.bearing)};
-    if (f.kind == cairn_FEATURE_ROBOT) {
-      if (f.marker_id <= 0 || f.marker_id == static_cast<long>(me)) continue;
+    if (f.kind == msg::FeatureKind::kRobot) {
+      if (f.marker_id <= 0 || f.marker_id == static_cast<std::int32_t>(me)) continue;
       const auto other = tracks_.find(static_cast<std::uint16_t>(f.marker_id));
       if (!t.localized || other == tracks_.end() || !other->second.localized) continue;
       Measurement meas{me, Measurement::Target::kRobot, static_cast<std::uint32_t>(f.marker_id), z, mat2(f.cov)};
@@ -282,19 +281,16 @@ bool Fusion::localized(std::uint16_t robot) const {
   return it != tracks_.end() && it->second.localized && filter_.has_robot(robot);
 }
 
-bool Fusion::correction(std::uint16_t robot, Nanos stamp, cairn_PoseCorrection* out) const {
+bool Fusion::correction(std::uint16_t robot, Nanos stamp, msg::PoseCorrection* out) const {
   if (!localized(robot)) return false;
   const Track& t = tracks_.at(robot);
   const Pose2 global = filter_.robot_pose(robot);
   *out = {};
   out->robot_id = robot;
-  out->stamp_ns = stamp;
-  out->global_pose = dds::to_msg(global);
-  out->local_to_global = dds::to_msg(compose(global, inverse(t.local)));
-  const Mat3 c = filter_.robot_cov(robot);
-  for (int r = 0; r < 3; ++r) {
-    for (int k = 0; k < 3; ++k) out->global_cov[r * 3 + k] = c(r, k);
-  }
+  out->stamp = stamp;
+  out->global_pose = global;
+  out->local_to_global = compose(global, inverse(t.local));
+  out->global_cov = msg::to_cov(filter_.robot_cov(robot));
   return true;
 }
 
@@ -306,22 +302,11 @@ std::vector<std::uint16_t> Fusion::robots() const {
   return ids;
 }
 
-void Fusion::feature_map(Nanos stamp, cairn_FeatureMap* out) const {
-  *out = {};
-  out->robot_id = 0;
-  out->stamp_ns = stamp;
+void Fusion::landmarks(std::vector<msg::Landmark>* out) const {
+  out->clear();
   for (ccml::FeatureId id : filter_.feature_ids()) {
-    if (out->n_landmarks >= cairn_MAX_LANDMARKS) break;
-    cairn_Landmark& l = out->landmarks[out->n_landmarks++];
-    l.id = id;
     const Vec2 p = filter_.feature(id);
-    const Mat2 c = filter_.feature_cov(id);
-    l.x = p.x();
-    l.y = p.y();
-    l.cov[0] = c(0, 0);
-    l.cov[1] = c(0, 1);
-    l.cov[2] = c(1, 0);
-    l.cov[3] = c(1, 1);
+    out->push_back({id, p.x(), p.y(), msg::to_cov(filter_.feature_cov(id))});
   }
 }
 
@@ -342,7 +327,7 @@ constexpr std::uint32_t kFusionMagic = 0x4E534646;  // "FFSN"
 
 void Fusion::save(std::ostream& out) const {
   put(out, kFusionMagic);
-  put(out, static_cast<std::uint32_t>(sizeof(cairn_FeatureObservations)));
+  put(out, static_cast<std::uint32_t>(sizeof(msg::FeatureObservations)));
   filter_.save(out);
   put(out, counters_);
   put(out, static_cast<std::uint64_t>(tracks_.size()));
@@ -370,7 +355,7 @@ void Fusion::load(std::istream& in) {
   get(in, &magic);
   get(in, &size);
   if (magic != kFusionMagic) throw std::runtime_error("fusion snapshot: not a fusion snapshot");
-  if (size != sizeof(cairn_FeatureObservations)) throw std::runtime_error("fusion snapshot: written by another version");
+  if (size != sizeof(msg::FeatureObservations)) throw std::runtime_error("fusion snapshot: written by another version");
   filter_ = ccml::CcmlFilter::load(in);
   get(in, &counters_);
   std::uint64_t n = 0;
@@ -391,7 +376,7 @@ void Fusion::load(std::istream& in) {
     get(in, &p);
     if (p > 100000) throw std::runtime_error("fusion snapshot: implausible pending count");
     for (std::uint64_t j = 0; j < p; ++j) {
-      cairn_FeatureObservations m;
+      msg::FeatureObservations m;
       get(in, &m);
       t.pending.push_back(m);
     }

@@ -1,7 +1,8 @@
 // The base station's fusion: every robot's OdometryIncrement and FeatureObservations
 // into one cooperative-CML estimator; PoseCorrection per robot and the FeatureMap out.
-// Pure logic on the topic structs (no DDS, no clock), deterministic for a given message
-// order, so the state store can rebuild it exactly from a snapshot and a log.
+// Pure logic on Cairn's own messages (common/messages.hpp: no DDS, no clock), deterministic
+// for a given message order, so the state store can rebuild it exactly from a snapshot and
+// a log. The DDS edge (fusion_node.cpp) converts to and from the IDL structs.
 //
 // Ordering rules: odometry is applied in seq order per robot (duplicates skipped; a gap
 // is bridged with the robot's reported local poses, its covariance scaled by the gap).
@@ -17,11 +18,12 @@
 #include <iosfwd>
 #include <map>
 #include <optional>
+#include <vector>
 
 #include "basestation/ccml/filter.hpp"
 #include "basestation/ccml/jcbb.hpp"
-#include "cairn.h"
 #include "common/clock.hpp"
+#include "common/messages.hpp"
 
 namespace cairn::base {
 
@@ -57,13 +59,14 @@ class Fusion {
 
   explicit Fusion(FusionConfig config);
 
-  Result on_odometry(const cairn_OdometryIncrement& m);
-  Result on_features(const cairn_FeatureObservations& m);
+  Result on_odometry(const msg::OdometryIncrement& m);
+  Result on_features(const msg::FeatureObservations& m);
 
   /// The correction for one robot; false if the robot is unknown or not yet localised.
-  bool correction(std::uint16_t robot, Nanos stamp, cairn_PoseCorrection* out) const;
+  bool correction(std::uint16_t robot, Nanos stamp, msg::PoseCorrection* out) const;
   std::vector<std::uint16_t> robots() const;
-  void feature_map(Nanos stamp, cairn_FeatureMap* out) const;
+  /// Every landmark of the map (all of them: the DDS edge pages them), into a caller's buffer.
+  void landmarks(std::vector<msg::Landmark>* out) const;
   const ccml::CcmlFilter& filter() const { return filter_; }
   const FusionCounters& counters() const { return counters_; }
   bool localized(std::uint16_t robot) const;
@@ -81,19 +84,19 @@ class Fusion {
     bool have_features = false;
     std::uint32_t feature_seq = 0;
     bool localized = false;
-    std::deque<cairn_FeatureObservations> pending;
+    std::deque<msg::FeatureObservations> pending;
     // Cumulative odometry covariance (robot frame approximation) by seq, for late features.
     std::deque<std::pair<std::uint32_t, Mat3>> cumulative;
   };
 
   Track& join(std::uint16_t robot, const Pose2& local_now);
-  void apply_features(const cairn_FeatureObservations& m, Track& t);
+  void apply_features(const msg::FeatureObservations& m, Track& t);
   void remember(Track& t, const Mat3& cov);
   /// Re-expresses a late message's features from the robot's current pose; false if too old.
-  bool reexpress(cairn_FeatureObservations* m, const Track& t) const;
+  bool reexpress(msg::FeatureObservations* m, const Track& t) const;
   void drain_pending(std::uint16_t robot, Track& t);
-  static bool valid(const cairn_OdometryIncrement& m);
-  static bool valid(const cairn_FeatureObservations& m);
+  static bool valid(const msg::OdometryIncrement& m);
+  static bool valid(const msg::FeatureObservations& m);
 
   FusionConfig config_;
   ccml::CcmlFilter filter_;

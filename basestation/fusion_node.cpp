@@ -11,11 +11,10 @@ FusionNode::FusionNode(const dds::Participant& pp, const BaseConfig& cfg)
       odom_topic_(pp),
       feat_topic_(pp),
       corr_topic_(pp),
-      map_topic_(pp),
       odom_reader_(pp, odom_topic_, dds::latched_qos(cfg.history_depth)),
       feat_reader_(pp, feat_topic_, dds::latched_qos(cfg.history_depth)),
       corr_writer_(pp, corr_topic_, dds::latched_qos()),
-      map_writer_(pp, map_topic_, dds::latched_qos()) {}
+      map_publisher_(pp) {}
 
 std::string FusionNode::restore() {
   const RestoreReport r = store_.restore(&fusion_);
@@ -31,11 +30,21 @@ std::string FusionNode::restore() {
 
 void FusionNode::poll(Nanos now) {
   // Odometry first, so features that refer to it can be applied at once.
-  odom_reader_.take([&](const cairn_OdometryIncrement& m, const dds_sample_info_t&) {
+  odom_reader_.take([&](const cairn_OdometryIncrement& s, const dds_sample_info_t&) {
+    msg::OdometryIncrement m;
+    if (!dds::from_dds(s, &m)) {
+      ++clamped_samples_;
+      return;
+    }
     store_.append(m, now);  // write-ahead: logged before it changes the state
     fusion_.on_odometry(m);
   });
-  feat_reader_.take([&](const cairn_FeatureObservations& m, const dds_sample_info_t&) {
+  feat_reader_.take([&](const cairn_FeatureObservations& s, const dds_sample_info_t&) {
+    msg::FeatureObservations m;
+    if (!dds::from_dds(s, &m)) {
+      ++clamped_samples_;
+      return;
+    }
     store_.append(m, now);
     fusion_.on_features(m);
   });
@@ -43,18 +52,19 @@ void FusionNode::poll(Nanos now) {
   if (now >= next_correction_) {
     next_correction_ = now + cfg_.correction_period;
     for (std::uint16_t id : fusion_.robots()) {
-      cairn_PoseCorrection c;
+      msg::PoseCorrection c;
       if (fusion_.correction(id, now, &c)) {
         c.seq = ++correction_seq_;
-        corr_writer_.write(c);
+        cairn_PoseCorrection out{};
+        dds::to_dds(c, &out);
+        corr_writer_.write(out);
       }
     }
   }
   if (now >= next_map_) {
     next_map_ = now + cfg_.map_period;
-    fusion_.feature_map(now, map_msg_.get());
-    map_msg_->seq = ++map_seq_;
-    map_writer_.write(*map_msg_);
+    fusion_.landmarks(&landmarks_);
+    map_publisher_.publish(landmarks_, ++map_seq_, now);
   }
 }
 
@@ -69,7 +79,7 @@ std::string FusionNode::summary() const {
                 static_cast<unsigned long long>(c.feature_duplicates), static_cast<unsigned long long>(c.feature_late),
                 static_cast<unsigned long long>(c.feature_stale),
                 static_cast<unsigned long long>(c.observations_used), static_cast<unsigned long long>(c.observations_new_features),
-                static_cast<unsigned long long>(c.observations_rejected), static_cast<unsigned long long>(c.invalid_messages),
+                static_cast<unsigned long long>(c.observations_rejected), static_cast<unsigned long long>(c.invalid_messages + clamped_samples_),
                 fusion_.robots().size(), static_cast<unsigned long long>(c.robots_localized), fusion_.filter().feature_count());
   return buf;
 }

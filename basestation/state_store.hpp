@@ -34,8 +34,8 @@ class StateStore {
 
   /// Loads the snapshot (if any) into `fusion` and replays the log through it; opens the log for appending.
   RestoreReport restore(Fusion* fusion);
-  void append(const cairn_OdometryIncrement& m, Nanos now);
-  void append(const cairn_FeatureObservations& m, Nanos now);
+  void append(const msg::OdometryIncrement& m, Nanos now);
+  void append(const msg::FeatureObservations& m, Nanos now);
   /// Writes a new snapshot when the period has passed (or `force`); starts a new log.
   bool maybe_snapshot(const Fusion& fusion, Nanos now, bool force = false);
 

@@ -179,6 +179,9 @@ bool from_dds(const cairn_TaskAssignment& m, msg::TaskAssignment* out) {
 void to_dds_page(const msg::Landmark* all, std::size_t count, std::size_t first, std::uint32_t seq, Nanos stamp,
                  cairn_FeatureMap* out) {
   out->robot_id = 0;
+  out->page = static_cast<std::uint16_t>(first / msg::kMaxLandmarks);
+  out->n_pages = static_cast<std::uint16_t>(feature_map_pages(count));
+  out->total = static_cast<std::uint32_t>(count);
   out->seq = seq;
   out->stamp_ns = stamp;
   out->n_landmarks = 0;

@@ -10,6 +10,13 @@
 namespace cairn {
 namespace {
 
+/// Stores an out-of-range value into an IDL enum field, as a hostile sample would carry.
+template <typename E>
+void set_raw_enum(E* field, int value) {
+  static_assert(sizeof(E) == sizeof(int));
+  std::memcpy(field, &value, sizeof value);
+}
+
 template <typename T>
 bool same_bytes(const T& a, const T& b) {
   return std::memcmp(&a, &b, sizeof(T)) == 0;
@@ -84,7 +91,7 @@ TEST(Convert, FeaturesRoundTripAndClamp) {
   EXPECT_FALSE(dds::from_dds(d, &b));
   EXPECT_EQ(b.n_features, msg::kMaxFeatures);
   d.n_features = 1;
-  d.features[0].kind = static_cast<cairn_FeatureKind>(9);
+  set_raw_enum(&d.features[0].kind, 9);
   EXPECT_FALSE(dds::from_dds(d, &b));
 }
 
@@ -118,7 +125,7 @@ TEST(Convert, CorrectionAndTaskRoundTrip) {
   EXPECT_TRUE(dds::from_dds(dt, &t2));
   EXPECT_TRUE(same_bytes(t, t2));
   dt.n_path = 1000;
-  dt.kind = static_cast<cairn_TaskKind>(42);
+  set_raw_enum(&dt.kind, 42);
   EXPECT_FALSE(dds::from_dds(dt, &t2));
   EXPECT_EQ(t2.n_path, msg::kMaxPath);
   EXPECT_EQ(t2.kind, msg::TaskKind::kStop);
@@ -126,7 +133,7 @@ TEST(Convert, CorrectionAndTaskRoundTrip) {
 
 TEST(Convert, LandmarkPages) {
   std::vector<msg::Landmark> all(300);
-  for (std::size_t i = 0; i < all.size(); ++i) all[i] = {static_cast<std::uint32_t>(i), 1.0 * i, -1.0 * i, {1, 0, 0, 1}};
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = {static_cast<std::uint32_t>(i), static_cast<double>(i), -static_cast<double>(i), {1, 0, 0, 1}};
   auto d = std::make_unique<cairn_FeatureMap>();
   std::size_t seen = 0;
   for (std::size_t first = 0; first < all.size(); first += msg::kMaxLandmarks) {
