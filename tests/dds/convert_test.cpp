@@ -31,6 +31,7 @@ TEST(Convert, OdometryRoundTrip) {
   a.delta = {0.1, -0.02, 0.03};
   for (std::size_t i = 0; i < 9; ++i) a.delta_cov[i] = 0.001 * static_cast<double>(i + 1);
   a.local_pose = {3.0, 4.0, -1.0};
+  a.boot_epoch = 0xC0FFEE01u;
   cairn_OdometryIncrement d{};
   dds::to_dds(a, &d);
   EXPECT_EQ(d.seq, 42u);
@@ -42,6 +43,9 @@ TEST(Convert, OdometryRoundTrip) {
   EXPECT_EQ(b.t1, a.t1);
   EXPECT_EQ(b.delta_cov, a.delta_cov);
   EXPECT_DOUBLE_EQ(b.local_pose.theta, -1.0);
+  EXPECT_EQ(d.boot_epoch, 0xC0FFEE01u);
+  EXPECT_EQ(b.boot_epoch, a.boot_epoch);
+  EXPECT_EQ(msg::OdometryIncrement{}.boot_epoch, 0u);  // default: not set
 }
 
 TEST(Convert, LaserScanRoundTripAndClamp) {
@@ -77,6 +81,7 @@ TEST(Convert, FeaturesRoundTripAndClamp) {
   a.stamp = 99;
   a.local_pose = {1, 1, 0.5};
   a.odom_seq = 4;
+  a.boot_epoch = 77;
   a.n_features = 2;
   a.features[0] = {msg::FeatureKind::kLandmark, -1, 4.0, 0.3, {0.0009, 0, 0, 1e-4}};
   a.features[1] = {msg::FeatureKind::kRobot, 2, 6.0, -0.3, {0.001, 1e-6, 1e-6, 2e-4}};
@@ -84,6 +89,7 @@ TEST(Convert, FeaturesRoundTripAndClamp) {
   dds::to_dds(a, &d);
   EXPECT_EQ(d.features[1].kind, cairn_FEATURE_ROBOT);
   EXPECT_EQ(d.features[1].marker_id, 2);
+  EXPECT_EQ(d.boot_epoch, 77u);
   msg::FeatureObservations b;
   EXPECT_TRUE(dds::from_dds(d, &b));
   EXPECT_TRUE(same_bytes(a, b));
@@ -139,6 +145,9 @@ TEST(Convert, LandmarkPages) {
   for (std::size_t first = 0; first < all.size(); first += msg::kMaxLandmarks) {
     dds::to_dds_page(all.data(), all.size(), first, 1, 2, d.get());
     for (std::size_t i = 0; i < d->n_landmarks; ++i) EXPECT_EQ(d->landmarks[i].id, first + i);
+    EXPECT_EQ(d->page, first / msg::kMaxLandmarks);
+    EXPECT_EQ(d->n_pages, 3u);
+    EXPECT_EQ(d->total, 300u);
     seen += d->n_landmarks;
   }
   EXPECT_EQ(seen, all.size());
