@@ -29,6 +29,9 @@ class FusionNode {
   const Fusion& fusion() const { return fusion_; }
 
  private:
+  template <typename M>
+  void accept(const M& m, Nanos now);
+
   const BaseConfig& cfg_;
   Fusion fusion_;
   StateStore store_;
@@ -41,7 +44,6 @@ class FusionNode {
   FeatureMapPublisher map_publisher_;
   Nanos next_correction_ = 0, next_map_ = 0;
   std::uint32_t correction_seq_ = 0, map_seq_ = 0;
-  std::uint64_t clamped_samples_ = 0;  // samples from_dds had to clamp: dropped as invalid
   std::vector<msg::Landmark> landmarks_;
 };
 

@@ -81,15 +81,25 @@ RestoreReport StateStore::restore(Fusion* fusion) {
           ++rep.torn_records;
           break;
         }
+        // A logged message that throws is skipped and counted: a restart must never die on
+        // its own log (every restart would replay it again).
+        auto apply = [&](auto&& fn) {
+          try {
+            fn();
+          } catch (const std::exception&) {
+            fusion->count(Reject::kApplyFailed);
+            ++rep.failed_records;
+          }
+        };
         if (type == kOdometry && size == sizeof(msg::OdometryIncrement)) {
           msg::OdometryIncrement m;
           std::memcpy(&m, buf.data(), size);
-          fusion->on_odometry(m);
+          apply([&] { fusion->on_odometry(m); });
           ++rep.replayed_odometry;
         } else if (type == kFeatures && size == sizeof(msg::FeatureObservations)) {
           msg::FeatureObservations m;
           std::memcpy(&m, buf.data(), size);
-          fusion->on_features(m);
+          apply([&] { fusion->on_features(m); });
           ++rep.replayed_features;
         } else {
           ++rep.torn_records;

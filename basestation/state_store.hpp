@@ -22,6 +22,7 @@ struct RestoreReport {
   std::uint64_t generation = 0;
   std::uint64_t replayed_odometry = 0, replayed_features = 0;
   std::uint64_t torn_records = 0;  // incomplete or corrupt records at the log's end (ignored)
+  std::uint64_t failed_records = 0;  // records that threw when applied: skipped and counted (Reject::kApplyFailed)
 };
 
 class StateStore {

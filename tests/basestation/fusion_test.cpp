@@ -18,6 +18,7 @@ using testing::FleetScenario;
 
 FusionConfig config_for(const FleetScenario& s, bool know_all = true) {
   FusionConfig c;
+  c.allow_unknown_robots = !know_all;  // the others join unlisted, by relocation
   for (std::size_t r = 0; r < s.starts.size(); ++r) {
     if (!know_all && r > 0) continue;
     RobotPrior p;
@@ -75,7 +76,7 @@ TEST(Fusion, RobotWithUnknownStartIsLocalisedByRelocation) {
   }
   EXPECT_FALSE(f.localized(2));
   for (; k < s.messages.size(); ++k) feed(&f, s.messages[k]);
-  ASSERT_TRUE(f.localized(2));
+  ASSERT_TRUE(f.localized(2)) << f.counters().rejected.summary();
   EXPECT_LT(position_error(f, s, 1), 0.3);
 }
 
@@ -103,7 +104,10 @@ TEST(Fusion, BadDuplicateLateAndMissingMessagesAreCountedNotFatal) {
   badf = feats[1];
   badf.n_features = 200;
   EXPECT_EQ(f.on_features(badf), Fusion::Result::kRejected);
-  EXPECT_EQ(f.counters().invalid_messages, 3u);
+  EXPECT_EQ(f.counters().rejected[Reject::kNonFinite], 1u);
+  EXPECT_EQ(f.counters().rejected[Reject::kBadCovariance], 1u);
+  EXPECT_EQ(f.counters().rejected[Reject::kMalformed], 1u);
+  EXPECT_EQ(f.counters().rejected.total(), 3u);
   // A gap in odometry is bridged with the local poses.
   EXPECT_EQ(f.on_odometry(odo[1]), Fusion::Result::kApplied);
   EXPECT_EQ(f.on_odometry(odo[5]), Fusion::Result::kApplied);
