@@ -4,8 +4,9 @@
 
 namespace cairn::base {
 
-BaseConfig load_base_config(const std::string& path) {
-  const ConfigDocument doc = ConfigDocument::load(path);
+namespace {
+
+BaseConfig from_document(const ConfigDocument& doc) {
   const ConfigSection root = doc.root();
   BaseConfig c;
   if (const auto b = root.optional_section("base")) c.name = b->string_or("name", "base");
@@ -23,6 +24,19 @@ BaseConfig load_base_config(const std::string& path) {
     c.history_depth = static_cast<int>(f->integer_or("history_depth", 512, {1, 100000}));
     c.fusion.iterations = static_cast<int>(f->integer_or("update_iterations", 1, {1, 50}));
     c.fusion.candidate_range = f->number_or("candidate_range_m", 15.0, {0.5, 1000.0});
+    FusionConfig& u = c.fusion;
+    u.max_landmarks = static_cast<std::size_t>(f->integer_or("max_landmarks", 2000, {1, 100000}));
+    u.landmark_confirm_count = static_cast<std::uint32_t>(f->integer_or("landmark_confirm_count", 3, {1, 1000}));
+    u.landmark_confirm_age = static_cast<std::uint64_t>(f->integer_or("landmark_confirm_age", 100, {1, 1000000}));
+    u.jcbb.relocation_margin = static_cast<int>(f->integer_or("relocation_margin", 1, {0, 32}));
+    FusionLimits& l = u.limits;
+    l.max_step_m = f->number_or("max_step_m", l.max_step_m, {0.01, 1000.0});
+    l.max_step_rad = f->number_or("max_step_rad", l.max_step_rad, {0.01, 10.0});
+    l.max_coordinate_m = f->number_or("max_coordinate_m", l.max_coordinate_m, {1.0, 1e7});
+    l.max_variance = f->number_or("max_variance", l.max_variance, {1e-6, 1e8});
+    l.max_range_m = f->number_or("max_range_m", l.max_range_m, {0.1, 10000.0});
+    l.max_seq_gap = static_cast<std::uint32_t>(f->integer_or("max_seq_gap", l.max_seq_gap, {1, 100000000}));
+    l.innovation_confidence = f->number_or("innovation_confidence", l.innovation_confidence, {0.9, 0.999999999});
   }
   auto read_sigma = [](const ConfigSection& s, const char* key, Vec3 fallback) {
     if (!s.has(key)) return fallback;
@@ -46,9 +60,32 @@ BaseConfig load_base_config(const std::string& path) {
       c.fusion.robots[id] = p;
     }
   }
-  if (const auto u = root.optional_section("unknown_robot")) c.fusion.unknown.sigma = read_sigma(*u, "initial_sigma", c.fusion.unknown.sigma);
+  if (const auto f = root.optional_section("fusion")) c.fusion.restart_sigma = read_sigma(*f, "restart_sigma", c.fusion.restart_sigma);
+  if (const auto u = root.optional_section("unknown_robot")) {
+    c.fusion.unknown.sigma = read_sigma(*u, "initial_sigma", c.fusion.unknown.sigma);
+    c.fusion.allow_unknown_robots = u->boolean_or("allow", false);
+    c.fusion.max_unknown_robots = static_cast<std::size_t>(u->integer_or("max_robots", 8, {0, 1000}));
+  }
+  // The map frame is defined by configuration: a listed robot with a known start pose.
+  // Without one, fusion would have no frame (and must not take whoever speaks first).
+  if (c.fusion_enabled) {
+    bool frame = false;
+    for (const auto& [id, p] : c.fusion.robots) frame = frame || p.known;
+    if (!frame) {
+      throw ConfigError(doc.name() + ": [fusion] is enabled but no [[robot]] has an initial_pose: one listed robot "
+                        "with a known start pose defines the map frame");
+    }
+  }
   doc.finish();
   return c;
+}
+
+}  // namespace
+
+BaseConfig load_base_config(const std::string& path) { return from_document(ConfigDocument::load(path)); }
+
+BaseConfig parse_base_config(std::string_view text, const std::string& name) {
+  return from_document(ConfigDocument::parse(text, name));
 }
 
 }  // namespace cairn::base

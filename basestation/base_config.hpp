@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 
 #include "basestation/fusion.hpp"
 #include "common/clock.hpp"
@@ -26,5 +27,7 @@ struct BaseConfig {
 };
 
 BaseConfig load_base_config(const std::string& path);
+/// The same from text (tests); `name` stands for the file in messages.
+BaseConfig parse_base_config(std::string_view text, const std::string& name);
 
 }  // namespace cairn::base

@@ -5,7 +5,6 @@
 #include <ostream>
 #include <stdexcept>
 
-#include "common/dds/topics.hpp"
 
 namespace cairn::base {
 
@@ -14,43 +13,71 @@ using ccml::Measurement;
 Fusion::Fusion(FusionConfig config) : config_(std::move(config)) {}
 
 namespace {
-bool finite_pose(const cairn_Pose2& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta); }
-template <std::size_t N>
-bool finite_all(const double (&a)[N]) {
-  for (double v : a) {
-    if (!std::isfinite(v)) return false;
-  }
-  return true;
-}
-Mat3 mat3(const double (&a)[9]) { return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(a); }
-Mat2 mat2(const double (&a)[4]) { return Eigen::Map<const Eigen::Matrix<double, 2, 2, Eigen::RowMajor>>(a); }
+Mat2 mat2(const msg::Cov2& a) { return msg::to_mat(a); }
+constexpr std::size_t kRetiredEpochs = 8;
 }  // namespace
 
-bool Fusion::valid(const cairn_OdometryIncrement& m) {
-  if (!finite_pose(m.delta) || !finite_pose(m.local_pose) || !finite_all(m.delta_cov)) return false;
-  const Mat3 c = mat3(m.delta_cov);
-  return c.diagonal().minCoeff() >= 0 && (c - c.transpose()).cwiseAbs().maxCoeff() < 1e-9;
-}
-
-bool Fusion::valid(const cairn_FeatureObservations& m) {
-  if (!finite_pose(m.local_pose) || m.n_features > cairn_MAX_FEATURES) return false;
-  for (int i = 0; i < m.n_features; ++i) {
-    const cairn_Feature& f = m.features[i];
-    if (!std::isfinite(f.range) || !std::isfinite(f.bearing) || f.range <= 0 || !finite_all(f.cov)) return false;
-    const Mat2 c = mat2(f.cov);
-    if (c(0, 0) <= 0 || c(1, 1) <= 0 || c.determinant() <= 0) return false;
+Fusion::Track* Fusion::admit(std::uint16_t robot, Reject* why) {
+  auto it = tracks_.find(robot);
+  if (it != tracks_.end()) return &it->second;
+  if (robot == 0) {  // 0 is the base's own id
+    *why = Reject::kUnknownRobot;
+    return nullptr;
   }
-  return true;
+  if (!config_.robots.count(robot)) {
+    if (!config_.allow_unknown_robots) {
+      *why = Reject::kUnknownRobot;
+      return nullptr;
+    }
+    std::size_t unknown = 0;
+    for (const auto& [id, t] : tracks_) unknown += config_.robots.count(id) == 0;
+    if (unknown >= config_.max_unknown_robots) {
+      *why = Reject::kRobotCap;
+      return nullptr;
+    }
+  }
+  return &tracks_[robot];
 }
 
-Fusion::Track& Fusion::join(std::uint16_t robot, const Pose2& local_now) {
-  Track& t = tracks_[robot];
+Fusion::Epoch Fusion::epoch(std::uint16_t robot, Track& t, std::uint32_t e) {
+  if (!t.have_epoch) {
+    t.have_epoch = true;
+    t.epoch = e;
+    return Epoch::kCurrent;
+  }
+  if (e == t.epoch) return Epoch::kCurrent;
+  for (std::uint32_t old : t.retired) {
+    if (old == e) return Epoch::kStale;
+  }
+  // A restart: the robot's seq and local frame begin again. Its global pose is where it
+  // was, less certain (it may have moved while down): inflate, and re-anchor the local
+  // frame on the new epoch's first increment.
+  t.retired.push_back(t.epoch);
+  if (t.retired.size() > kRetiredEpochs) t.retired.pop_front();
+  t.epoch = e;
+  t.have_odometry = false;
+  t.odom_seq = 0;
+  t.have_features = false;
+  t.feature_seq = 0;
+  counters_.feature_stale += t.pending.size();
+  t.pending.clear();
+  t.cumulative.clear();
+  if (t.joined) {
+    const Mat3 q = config_.restart_sigma.cwiseAbs2().asDiagonal();
+    if (!filter_.add_process_noise(robot, q)) counters_.rejected.count(Reject::kFilterRefused);
+    // Beyond the relocation threshold the robot re-joins by relocation against the map.
+    if (std::max(config_.restart_sigma.x(), config_.restart_sigma.y()) > config_.jcbb.relocation_sigma) t.localized = false;
+  }
+  ++counters_.robots_restarted;
+  return Epoch::kRestarted;
+}
+
+Fusion::Track& Fusion::join(std::uint16_t robot, Track& t, const Pose2& local_now) {
   if (t.joined) return t;
   auto p = config_.robots.find(robot);
   RobotPrior prior = p != config_.robots.end() ? p->second : config_.unknown;
-  // The first robot into an empty map defines the map frame, whatever its prior says.
-  const bool first = filter_.robot_ids().empty() && filter_.feature_count() == 0;
-  if (!prior.known && first) prior.known = true;
+  // The map frame is the configured priors': a robot not listed never defines it.
+  if (p == config_.robots.end()) prior.known = false;
   const Mat3 cov = prior.sigma.cwiseAbs2().asDiagonal();
   filter_.add_robot(robot, compose(prior.pose, local_now), cov);
   t.joined = true;
@@ -60,15 +87,26 @@ Fusion::Track& Fusion::join(std::uint16_t robot, const Pose2& local_now) {
   return t;
 }
 
-Fusion::Result Fusion::on_odometry(const cairn_OdometryIncrement& m) {
-  if (!valid(m)) {
-    ++counters_.invalid_messages;
+Fusion::Result Fusion::on_odometry(const msg::OdometryIncrement& m) {
+  Reject why{};
+  if (auto bad = check(m)) {
+    counters_.rejected.count(*bad);
     return Result::kRejected;
   }
-  const Pose2 local = dds::from_msg(m.local_pose);
-  Track& t = join(m.robot_id, local);
+  Track* tp = admit(m.robot_id, &why);
+  if (!tp) {
+    counters_.rejected.count(why);
+    return Result::kRejected;
+  }
+  if (epoch(m.robot_id, *tp, m.boot_epoch) == Epoch::kStale) {
+    counters_.rejected.count(Reject::kStaleEpoch);
+    return Result::kRejected;
+  }
+  const Pose2 local = m.local_pose;
+  Track& t = join(m.robot_id, *tp, local);
   if (!t.have_odometry) {
-    // First increment: join() placed the robot at prior ⊕ this local pose; nothing to predict.
+    // First increment (of this boot): the robot's local frame is anchored here; its global
+    // pose is the filter's (the prior ⊕ this local pose when it just joined).
     t.have_odometry = true;
     t.odom_seq = m.seq;
     t.local = local;
@@ -81,15 +119,26 @@ Fusion::Result Fusion::on_odometry(const cairn_OdometryIncrement& m) {
     ++counters_.odometry_duplicates;
     return Result::kDuplicate;
   }
-  Pose2 delta = dds::from_msg(m.delta);
-  Mat3 cov = mat3(m.delta_cov);
+  if (m.seq - t.odom_seq > config_.limits.max_seq_gap) {  // one bad seq must not silence the robot
+    counters_.rejected.count(Reject::kSeqJump);
+    return Result::kRejected;
+  }
+  Pose2 delta = m.delta;
+  Mat3 cov = msg::to_mat(m.delta_cov);
   if (m.seq != t.odom_seq + 1) {
     // Missed increments: bridge with the robot's own local poses, uncertainty scaled by the gap.
-    ++counters_.odometry_gaps;
     delta = between(t.local, local);
+    if (std::hypot(delta.x, delta.y) > config_.limits.max_step_m * static_cast<double>(m.seq - t.odom_seq)) {
+      counters_.rejected.count(Reject::kOutOfBounds);
+      return Result::kRejected;
+    }
+    ++counters_.odometry_gaps;
     cov *= static_cast<double>(m.seq - t.odom_seq);
   }
-  filter_.predict(m.robot_id, delta, cov);
+  if (!filter_.predict(m.robot_id, delta, cov)) {
+    counters_.rejected.count(Reject::kFilterRefused);
+    return Result::kRejected;
+  }
   t.odom_seq = m.seq;
   t.local = local;
   remember(t, cov);
@@ -98,34 +147,48 @@ Fusion::Result Fusion::on_odometry(const cairn_OdometryIncrement& m) {
   return Result::kApplied;
 }
 
-Fusion::Result Fusion::on_features(const cairn_FeatureObservations& m) {
-  if (!valid(m)) {
-    ++counters_.invalid_messages;
+Fusion::Result Fusion::on_features(const msg::FeatureObservations& m) {
+  Reject why{};
+  if (auto bad = check(m)) {
+    counters_.rejected.count(*bad);
     return Result::kRejected;
   }
-  auto it = tracks_.find(m.robot_id);
-  if (it != tracks_.end() && it->second.have_features && m.seq <= it->second.feature_seq) {
+  Track* tp = admit(m.robot_id, &why);
+  if (!tp) {
+    counters_.rejected.count(why);
+    return Result::kRejected;
+  }
+  Track& t = *tp;
+  if (epoch(m.robot_id, t, m.boot_epoch) == Epoch::kStale) {
+    counters_.rejected.count(Reject::kStaleEpoch);
+    return Result::kRejected;
+  }
+  if (t.have_features && m.seq <= t.feature_seq) {
     ++counters_.feature_duplicates;
     return Result::kDuplicate;
   }
-  if (it == tracks_.end() || !it->second.have_odometry || m.odom_seq > it->second.odom_seq) {
-    Track& track = tracks_[m.robot_id];  // waits here until the robot's odometry catches up
-    for (const auto& p : track.pending) {
+  if ((t.have_features && m.seq - t.feature_seq > config_.limits.max_seq_gap) ||
+      (t.have_odometry && m.odom_seq > t.odom_seq && m.odom_seq - t.odom_seq > config_.limits.max_seq_gap)) {
+    counters_.rejected.count(Reject::kSeqJump);
+    return Result::kRejected;
+  }
+  if (!t.have_odometry || m.odom_seq > t.odom_seq) {
+    // Waits in this robot's own bounded queue until its odometry catches up.
+    for (const auto& p : t.pending) {
       if (p.seq == m.seq) {
         ++counters_.feature_duplicates;
         return Result::kDuplicate;
       }
     }
-    if (track.pending.size() >= config_.max_pending) {
-      track.pending.pop_front();
+    if (t.pending.size() >= config_.max_pending) {
+      t.pending.pop_front();
       ++counters_.pending_overflow;
     }
-    track.pending.push_back(m);
+    t.pending.push_back(m);
     return Result::kBuffered;
   }
-  Track& t = it->second;
   if (m.odom_seq < t.odom_seq) {
-    cairn_FeatureObservations late = m;
+    msg::FeatureObservations late = m;
     if (!reexpress(&late, t)) {
       ++counters_.feature_stale;
       return Result::kRejected;
@@ -141,7 +204,7 @@ Fusion::Result Fusion::on_features(const cairn_FeatureObservations& m) {
 void Fusion::drain_pending(std::uint16_t robot, Track& t) {
   (void)robot;
   while (!t.pending.empty() && t.pending.front().odom_seq <= t.odom_seq) {
-    const cairn_FeatureObservations m = t.pending.front();
+    const msg::FeatureObservations m = t.pending.front();
     t.pending.pop_front();
     if (t.have_features && m.seq <= t.feature_seq) {
       ++counters_.feature_duplicates;
@@ -157,7 +220,7 @@ void Fusion::remember(Track& t, const Mat3& cov) {
   while (t.cumulative.size() > config_.odometry_window) t.cumulative.pop_front();
 }
 
-bool Fusion::reexpress(cairn_FeatureObservations* m, const Track& t) const {
+bool Fusion::reexpress(msg::FeatureObservations* m, const Track& t) const {
   auto at = [&](std::uint32_t seq) -> const Mat3* {
     for (auto it = t.cumulative.rbegin(); it != t.cumulative.rend(); ++it) {
       if (it->first == seq) return &it->second;
@@ -169,9 +232,9 @@ bool Fusion::reexpress(cairn_FeatureObservations* m, const Track& t) const {
   if (!then || t.cumulative.empty()) return false;
   const Mat3 motion = t.cumulative.back().second - *then;  // odometry covariance accumulated since
   // T: the frame the features were observed in, seen from the robot's current local pose.
-  const Pose2 T = between(t.local, dds::from_msg(m->local_pose));
-  for (int i = 0; i < m->n_features; ++i) {
-    cairn_Feature& f = m->features[i];
+  const Pose2 T = between(t.local, m->local_pose);
+  for (std::size_t i = 0; i < m->n_features; ++i) {
+    msg::Feature& f = m->features[i];
     const RangeBearing z{f.range, f.bearing};
     const Vec2 p = point_from_observation({}, z);
     const Vec2 q = transform_point(T, p);
@@ -191,38 +254,36 @@ bool Fusion::reexpress(cairn_FeatureObservations* m, const Track& t) const {
     f.cov[1] = f.cov[2] = 0.5 * (Rz(0, 1) + Rz(1, 0));
     f.cov[3] = Rz(1, 1);
   }
-  m->local_pose = dds::to_msg(t.local);
+  m->local_pose = t.local;
   m->odom_seq = t.odom_seq;
   return true;
 }
 
-void Fusion::apply_features(const cairn_FeatureObservations& m, Track& t) {
+void Fusion::apply_features(const msg::FeatureObservations& m, Track& t) {
   t.have_features = true;
   t.feature_seq = m.seq;
   ++counters_.feature_messages_applied;
   const ccml::RobotId me = m.robot_id;
+  const double gate = ccml::chi2_quantile(config_.limits.innovation_confidence, 2);
   std::vector<Measurement> batch;
   std::vector<RangeBearing> lm_z;
   std::vector<Mat2> lm_R;
-  for (int i = 0; i < m.n_features; ++i) {
-    const cairn_Feature& f = m.features[i];
+  for (std::size_t i = 0; i < m.n_features; ++i) {
+    const msg::Feature& f = m.features[i];
     const RangeBearing z{f.range, normalize_angle(f.bearing)};
-    if (f.kind == cairn_FEATURE_ROBOT) {
-      if (f.marker_id <= 0 || f.marker_id == static_cast<long>(me)) continue;
-      const auto other = tracks_.find(static_cast<std::uint16_t>(f.marker_id));
-      if (!t.localized || other == tracks_.end() || !other->second.localized) continue;
-      Measurement meas{me, Measurement::Target::kRobot, static_cast<std::uint32_t>(f.marker_id), z, mat2(f.cov)};
-      if (filter_.innovation(meas).nis() > ccml::chi2_quantile(0.999, 2)) {
-        ++counters_.observations_rejected;
-        continue;
-      }
-      batch.push_back(meas);
+    if (f.kind == msg::FeatureKind::kRobot) {
+      if (f.marker_id == -1) continue;  // a marker not decoded: nothing to pair it with
+      // check() bounded it to [1, 65535] and not the observer: the same id for lookup and measurement.
+      const auto other_id = static_cast<std::uint16_t>(f.marker_id);
+      const auto other = tracks_.find(other_id);
+      if (!t.localized || other == tracks_.end() || !other->second.localized || !filter_.has_robot(other_id)) continue;
+      batch.push_back({me, Measurement::Target::kRobot, other_id, z, mat2(f.cov)});
       continue;
     }
     if (z.range > config_.candidate_range) {
       // Beyond the association range: it could never be matched again, so every sighting
-      // would add a new landmark. Counted as rejected.
-      ++counters_.observations_rejected;
+      // would add a new landmark.
+      counters_.rejected.count(Reject::kBeyondRange);
       continue;
     }
     lm_z.push_back(z);
@@ -235,46 +296,90 @@ void Fusion::apply_features(const cairn_FeatureObservations& m, Track& t) {
       if (!t.localized || (filter_.feature(id) - pose.translation()).norm() < config_.candidate_range) candidates.push_back(id);
     }
     const ccml::JcbbResult jr = ccml::jcbb(filter_, me, lm_z, lm_R, candidates, config_.jcbb);
-    std::vector<Measurement> reloc;
-    std::vector<Vec2> local, global;
-    const double gate = ccml::chi2_quantile(config_.new_feature_confidence, 2);
-    for (std::size_t k = 0; k < lm_z.size(); ++k) {
-      if (jr.pairing[k]) {
-        Measurement meas{me, Measurement::Target::kFeature, *jr.pairing[k], lm_z[k], lm_R[k]};
-        if (t.localized) {
-          batch.push_back(meas);
+    if (jr.budget_exhausted) {
+      // The search stopped early: its pairing is not the best one. Use none of this scan's landmarks.
+      counters_.rejected.count(Reject::kSearchIncomplete);
+    } else if (!t.localized) {
+      std::vector<Measurement> reloc;
+      std::vector<Vec2> local, global;
+      for (std::size_t k = 0; k < lm_z.size(); ++k) {
+        if (!jr.pairing[k]) continue;
+        reloc.push_back({me, Measurement::Target::kFeature, *jr.pairing[k], lm_z[k], lm_R[k]});
+        local.push_back(point_from_observation({}, lm_z[k]));
+        global.push_back(filter_.feature(*jr.pairing[k]));
+      }
+      if (reloc.size() >= 3 && jr.relocation_mode && jr.ambiguous) {
+        counters_.rejected.count(Reject::kRelocationAmbiguous);
+      } else if (reloc.size() >= 3) {
+        const ccml::CcmlFilter::Seed seed{me, ccml::align_points(local, global)};
+        const ccml::UpdateResult u = filter_.update(reloc, 15, &seed);
+        if (u.applied) {
+          t.localized = true;
+          ++counters_.robots_localized;
+          counters_.observations_used += reloc.size();
+        } else if (u.refused) {
+          counters_.rejected.count(Reject::kFilterRefused);
+        }
+      }
+    } else {
+      const double new_gate = ccml::chi2_quantile(config_.new_feature_confidence, 2);
+      for (std::size_t k = 0; k < lm_z.size(); ++k) {
+        if (jr.pairing[k]) {
+          batch.push_back({me, Measurement::Target::kFeature, *jr.pairing[k], lm_z[k], lm_R[k]});
+          auto tent = tentative_.find(*jr.pairing[k]);
+          if (tent != tentative_.end() && ++tent->second.seen >= config_.landmark_confirm_count) tentative_.erase(tent);
+          continue;
+        }
+        bool ambiguous = false;
+        for (ccml::FeatureId id : candidates) {
+          if (filter_.innovation({me, Measurement::Target::kFeature, id, lm_z[k], lm_R[k]}).nis() <= new_gate) {
+            ambiguous = true;
+            break;
+          }
+        }
+        if (ambiguous) {
+          counters_.rejected.count(Reject::kAmbiguousNew);
+        } else if (filter_.feature_count() >= config_.max_landmarks) {
+          counters_.rejected.count(Reject::kLandmarkCap);
         } else {
-          reloc.push_back(meas);
-          local.push_back(point_from_observation({}, lm_z[k]));
-          global.push_back(filter_.feature(*jr.pairing[k]));
+          const ccml::FeatureId id = filter_.add_feature(me, lm_z[k], lm_R[k]);
+          if (config_.landmark_confirm_count > 1) tentative_[id] = {1, counters_.feature_messages_applied};
+          ++counters_.observations_new_features;
         }
-        continue;
-      }
-      if (!t.localized) continue;
-      bool ambiguous = false;
-      for (ccml::FeatureId id : candidates) {
-        if (filter_.innovation({me, Measurement::Target::kFeature, id, lm_z[k], lm_R[k]}).nis() <= gate) {
-          ambiguous = true;
-          break;
-        }
-      }
-      if (ambiguous) {
-        ++counters_.observations_rejected;
-      } else {
-        filter_.add_feature(me, lm_z[k], lm_R[k]);
-        ++counters_.observations_new_features;
-      }
-    }
-    if (!t.localized && reloc.size() >= 3) {
-      const ccml::CcmlFilter::Seed seed{me, ccml::align_points(local, global)};
-      if (filter_.update(reloc, 15, &seed).applied) {
-        t.localized = true;
-        ++counters_.robots_localized;
-        counters_.observations_used += reloc.size();
       }
     }
   }
-  if (!batch.empty() && filter_.update(batch, config_.iterations).applied) counters_.observations_used += batch.size();
+  // χ² gate on each observation's innovation before it enters the update.
+  std::vector<Measurement> gated;
+  for (const Measurement& meas : batch) {
+    const ccml::Innovation inn = filter_.innovation(meas);
+    if (!inn.nu.allFinite() || !inn.S.allFinite() || !(inn.nis() <= gate)) {
+      counters_.rejected.count(Reject::kInnovationGate);
+      continue;
+    }
+    gated.push_back(meas);
+  }
+  if (!gated.empty()) {
+    const ccml::UpdateResult u = filter_.update(gated, config_.iterations);
+    if (u.applied) {
+      counters_.observations_used += gated.size();
+    } else if (u.refused) {
+      counters_.rejected.count(Reject::kFilterRefused);
+    }
+  }
+  prune_tentative();
+}
+
+void Fusion::prune_tentative() {
+  for (auto it = tentative_.begin(); it != tentative_.end();) {
+    if (counters_.feature_messages_applied - it->second.born <= config_.landmark_confirm_age) {
+      ++it;
+      continue;
+    }
+    if (filter_.has_feature(it->first)) filter_.remove_feature(it->first);
+    ++counters_.landmarks_pruned;
+    it = tentative_.erase(it);
+  }
 }
 
 bool Fusion::localized(std::uint16_t robot) const {
@@ -282,19 +387,16 @@ bool Fusion::localized(std::uint16_t robot) const {
   return it != tracks_.end() && it->second.localized && filter_.has_robot(robot);
 }
 
-bool Fusion::correction(std::uint16_t robot, Nanos stamp, cairn_PoseCorrection* out) const {
+bool Fusion::correction(std::uint16_t robot, Nanos stamp, msg::PoseCorrection* out) const {
   if (!localized(robot)) return false;
   const Track& t = tracks_.at(robot);
   const Pose2 global = filter_.robot_pose(robot);
   *out = {};
   out->robot_id = robot;
-  out->stamp_ns = stamp;
-  out->global_pose = dds::to_msg(global);
-  out->local_to_global = dds::to_msg(compose(global, inverse(t.local)));
-  const Mat3 c = filter_.robot_cov(robot);
-  for (int r = 0; r < 3; ++r) {
-    for (int k = 0; k < 3; ++k) out->global_cov[r * 3 + k] = c(r, k);
-  }
+  out->stamp = stamp;
+  out->global_pose = global;
+  out->local_to_global = compose(global, inverse(t.local));
+  out->global_cov = msg::to_cov(filter_.robot_cov(robot));
   return true;
 }
 
@@ -306,22 +408,11 @@ std::vector<std::uint16_t> Fusion::robots() const {
   return ids;
 }
 
-void Fusion::feature_map(Nanos stamp, cairn_FeatureMap* out) const {
-  *out = {};
-  out->robot_id = 0;
-  out->stamp_ns = stamp;
+void Fusion::landmarks(std::vector<msg::Landmark>* out) const {
+  out->clear();
   for (ccml::FeatureId id : filter_.feature_ids()) {
-    if (out->n_landmarks >= cairn_MAX_LANDMARKS) break;
-    cairn_Landmark& l = out->landmarks[out->n_landmarks++];
-    l.id = id;
     const Vec2 p = filter_.feature(id);
-    const Mat2 c = filter_.feature_cov(id);
-    l.x = p.x();
-    l.y = p.y();
-    l.cov[0] = c(0, 0);
-    l.cov[1] = c(0, 1);
-    l.cov[2] = c(1, 0);
-    l.cov[3] = c(1, 1);
+    out->push_back({id, p.x(), p.y(), msg::to_cov(filter_.feature_cov(id))});
   }
 }
 
@@ -338,11 +429,13 @@ void get(std::istream& i, T* v) {
   if (!i.read(reinterpret_cast<char*>(v), sizeof *v)) throw std::runtime_error("fusion snapshot: truncated");
 }
 constexpr std::uint32_t kFusionMagic = 0x4E534646;  // "FFSN"
+constexpr std::uint32_t kFusionVersion = 2;        // 2: epochs, tentative landmarks, reject counters
 }  // namespace
 
 void Fusion::save(std::ostream& out) const {
   put(out, kFusionMagic);
-  put(out, static_cast<std::uint32_t>(sizeof(cairn_FeatureObservations)));
+  put(out, kFusionVersion);
+  put(out, static_cast<std::uint32_t>(sizeof(msg::FeatureObservations)));
   filter_.save(out);
   put(out, counters_);
   put(out, static_cast<std::uint64_t>(tracks_.size()));
@@ -355,6 +448,10 @@ void Fusion::save(std::ostream& out) const {
     put(out, t.have_features);
     put(out, t.feature_seq);
     put(out, t.localized);
+    put(out, t.have_epoch);
+    put(out, t.epoch);
+    put(out, static_cast<std::uint64_t>(t.retired.size()));
+    for (std::uint32_t e : t.retired) put(out, e);
     put(out, static_cast<std::uint64_t>(t.pending.size()));
     for (const auto& m : t.pending) put(out, m);
     put(out, static_cast<std::uint64_t>(t.cumulative.size()));
@@ -363,14 +460,21 @@ void Fusion::save(std::ostream& out) const {
       out.write(reinterpret_cast<const char*>(cov.data()), sizeof(double) * 9);
     }
   }
+  put(out, static_cast<std::uint64_t>(tentative_.size()));
+  for (const auto& [id, tent] : tentative_) {
+    put(out, id);
+    put(out, tent);
+  }
 }
 
 void Fusion::load(std::istream& in) {
-  std::uint32_t magic = 0, size = 0;
+  std::uint32_t magic = 0, version = 0, size = 0;
   get(in, &magic);
-  get(in, &size);
   if (magic != kFusionMagic) throw std::runtime_error("fusion snapshot: not a fusion snapshot");
-  if (size != sizeof(cairn_FeatureObservations)) throw std::runtime_error("fusion snapshot: written by another version");
+  get(in, &version);
+  if (version != kFusionVersion) throw std::runtime_error("fusion snapshot: written by another version");
+  get(in, &size);
+  if (size != sizeof(msg::FeatureObservations)) throw std::runtime_error("fusion snapshot: written by another version");
   filter_ = ccml::CcmlFilter::load(in);
   get(in, &counters_);
   std::uint64_t n = 0;
@@ -387,11 +491,21 @@ void Fusion::load(std::istream& in) {
     get(in, &t.have_features);
     get(in, &t.feature_seq);
     get(in, &t.localized);
+    get(in, &t.have_epoch);
+    get(in, &t.epoch);
+    std::uint64_t nr = 0;
+    get(in, &nr);
+    if (nr > 64) throw std::runtime_error("fusion snapshot: implausible epoch count");
+    for (std::uint64_t j = 0; j < nr; ++j) {
+      std::uint32_t e = 0;
+      get(in, &e);
+      t.retired.push_back(e);
+    }
     std::uint64_t p = 0;
     get(in, &p);
     if (p > 100000) throw std::runtime_error("fusion snapshot: implausible pending count");
     for (std::uint64_t j = 0; j < p; ++j) {
-      cairn_FeatureObservations m;
+      msg::FeatureObservations m;
       get(in, &m);
       t.pending.push_back(m);
     }
@@ -405,6 +519,17 @@ void Fusion::load(std::istream& in) {
       if (!in.read(reinterpret_cast<char*>(cov.data()), sizeof(double) * 9)) throw std::runtime_error("fusion snapshot: truncated");
       t.cumulative.emplace_back(seq, cov);
     }
+  }
+  std::uint64_t nt = 0;
+  get(in, &nt);
+  if (nt > 10'000'000) throw std::runtime_error("fusion snapshot: implausible landmark count");
+  tentative_.clear();
+  for (std::uint64_t j = 0; j < nt; ++j) {
+    ccml::FeatureId id = 0;
+    Tentative tent;
+    get(in, &id);
+    get(in, &tent);
+    tentative_[id] = tent;
   }
 }
 

@@ -1,15 +1,24 @@
 // The base station's fusion: every robot's OdometryIncrement and FeatureObservations
 // into one cooperative-CML estimator; PoseCorrection per robot and the FeatureMap out.
-// Pure logic on the topic structs (no DDS, no clock), deterministic for a given message
-// order, so the state store can rebuild it exactly from a snapshot and a log.
+// Pure logic on Cairn's own messages (common/messages.hpp: no DDS, no clock), deterministic
+// for a given message order, so the state store can rebuild it exactly from a snapshot and
+// a log. The DDS edge (fusion_node.cpp) converts to and from the IDL structs.
 //
 // Ordering rules: odometry is applied in seq order per robot (duplicates skipped; a gap
 // is bridged with the robot's reported local poses, its covariance scaled by the gap).
-// Features wait (bounded) until the odometry they refer to (odom_seq) has been applied.
-// Features that arrive after later odometry (the two topics are independent) are
+// Features wait (bounded, per robot) until the odometry they refer to (odom_seq) has been
+// applied. Features that arrive after later odometry (the two topics are independent) are
 // re-expressed from the robot's current pose through the robot's own local poses, with
 // the odometry covariance in between added to their noise; only features older than the
 // remembered odometry window are stale (counted, not applied).
+//
+// Robustness (docs/ccml.md, "The base's fusion"): every message is checked (fusion_checks)
+// and everything refused is counted by reason (reject.hpp), never thrown. Only configured
+// robots join unless unknown ones are allowed (bounded); the map frame is the configured
+// robots' priors, never whoever speaks first. A new boot_epoch is a robot restart (new
+// local frame, inflated covariance), a retired one is stale. New landmarks stay tentative
+// until seen often enough and the map is capped. Relocation needs an unambiguous,
+// complete JCBB search.
 #pragma once
 
 #include <cstdint>
@@ -17,11 +26,14 @@
 #include <iosfwd>
 #include <map>
 #include <optional>
+#include <vector>
 
 #include "basestation/ccml/filter.hpp"
 #include "basestation/ccml/jcbb.hpp"
-#include "cairn.h"
+#include "basestation/fusion_checks.hpp"
+#include "basestation/reject.hpp"
 #include "common/clock.hpp"
+#include "common/messages.hpp"
 
 namespace cairn::base {
 
@@ -32,8 +44,10 @@ struct RobotPrior {
 };
 
 struct FusionConfig {
-  std::map<std::uint16_t, RobotPrior> robots;  // per-robot priors from the configuration
-  RobotPrior unknown;                          // for robots not listed
+  std::map<std::uint16_t, RobotPrior> robots;  // the fleet, with priors; the known ones define the map frame
+  RobotPrior unknown;                          // for robots not listed (never known)
+  bool allow_unknown_robots = false;           // else robots not listed are refused
+  std::size_t max_unknown_robots = 8;          // at most this many unlisted robots join
   int iterations = 1;                          // EKF update iterations
   std::size_t max_pending = 64;                // feature messages waiting for their odometry, per robot
   std::size_t odometry_window = 1024;          // increments remembered per robot to re-express late features
@@ -41,14 +55,20 @@ struct FusionConfig {
   /// An unpaired observation starts a new feature only if no existing feature explains it
   /// even at this confidence (far stricter than the pairing gate: duplicates are costly).
   double new_feature_confidence = 0.999999;
+  std::size_t max_landmarks = 2000;            // new landmarks beyond this are refused (counted)
+  std::uint32_t landmark_confirm_count = 3;    // a new landmark seen fewer times than this ...
+  std::uint64_t landmark_confirm_age = 100;    // ... within this many feature messages (all robots) is removed
+  Vec3 restart_sigma = Vec3(0.2, 0.2, 0.05);   // added to a rebooted robot's pose (x m, y m, θ rad)
+  FusionLimits limits;
   ccml::JcbbConfig jcbb;
 };
 
 struct FusionCounters {
   std::uint64_t odometry_applied = 0, odometry_duplicates = 0, odometry_gaps = 0;
   std::uint64_t feature_messages_applied = 0, feature_duplicates = 0, feature_late = 0, feature_stale = 0, pending_overflow = 0;
-  std::uint64_t observations_used = 0, observations_new_features = 0, observations_rejected = 0;
-  std::uint64_t robots_joined = 0, robots_localized = 0, invalid_messages = 0;
+  std::uint64_t observations_used = 0, observations_new_features = 0, landmarks_pruned = 0;
+  std::uint64_t robots_joined = 0, robots_localized = 0, robots_restarted = 0;
+  RejectCounters rejected;  // by reason: messages and observations not applied
 };
 
 class Fusion {
@@ -57,16 +77,23 @@ class Fusion {
 
   explicit Fusion(FusionConfig config);
 
-  Result on_odometry(const cairn_OdometryIncrement& m);
-  Result on_features(const cairn_FeatureObservations& m);
+  Result on_odometry(const msg::OdometryIncrement& m);
+  Result on_features(const msg::FeatureObservations& m);
 
   /// The correction for one robot; false if the robot is unknown or not yet localised.
-  bool correction(std::uint16_t robot, Nanos stamp, cairn_PoseCorrection* out) const;
+  bool correction(std::uint16_t robot, Nanos stamp, msg::PoseCorrection* out) const;
   std::vector<std::uint16_t> robots() const;
-  void feature_map(Nanos stamp, cairn_FeatureMap* out) const;
+  /// Every landmark of the map (all of them: the DDS edge pages them), into a caller's buffer.
+  void landmarks(std::vector<msg::Landmark>* out) const;
   const ccml::CcmlFilter& filter() const { return filter_; }
   const FusionCounters& counters() const { return counters_; }
   bool localized(std::uint16_t robot) const;
+
+  /// The message checks alone (no state change): the DDS node runs them before logging.
+  std::optional<Reject> check(const msg::OdometryIncrement& m) const { return base::check(m, config_.limits); }
+  std::optional<Reject> check(const msg::FeatureObservations& m) const { return base::check(m, config_.limits); }
+  /// Counts a refusal decided outside (a malformed DDS sample, a message that threw).
+  void count(Reject r) { counters_.rejected.count(r); }
 
   /// Exact binary snapshot (estimator, per-robot bookkeeping, waiting messages, counters).
   void save(std::ostream& out) const;
@@ -81,23 +108,34 @@ class Fusion {
     bool have_features = false;
     std::uint32_t feature_seq = 0;
     bool localized = false;
-    std::deque<cairn_FeatureObservations> pending;
+    std::deque<msg::FeatureObservations> pending;
     // Cumulative odometry covariance (robot frame approximation) by seq, for late features.
     std::deque<std::pair<std::uint32_t, Mat3>> cumulative;
+    bool have_epoch = false;
+    std::uint32_t epoch = 0;
+    std::deque<std::uint32_t> retired;  // epochs the robot has left (bounded)
   };
+  struct Tentative {  // a new landmark not yet confirmed
+    std::uint32_t seen = 1;
+    std::uint64_t born = 0;  // feature_messages_applied when it was added
+  };
+  enum class Epoch { kCurrent, kRestarted, kStale };
 
-  Track& join(std::uint16_t robot, const Pose2& local_now);
-  void apply_features(const cairn_FeatureObservations& m, Track& t);
+  /// The robot's track if it may send (listed, or unknown ones allowed and room); else the reason.
+  Track* admit(std::uint16_t robot, Reject* why);
+  Epoch epoch(std::uint16_t robot, Track& t, std::uint32_t e);
+  Track& join(std::uint16_t robot, Track& t, const Pose2& local_now);
+  void prune_tentative();
+  void apply_features(const msg::FeatureObservations& m, Track& t);
   void remember(Track& t, const Mat3& cov);
   /// Re-expresses a late message's features from the robot's current pose; false if too old.
-  bool reexpress(cairn_FeatureObservations* m, const Track& t) const;
+  bool reexpress(msg::FeatureObservations* m, const Track& t) const;
   void drain_pending(std::uint16_t robot, Track& t);
-  static bool valid(const cairn_OdometryIncrement& m);
-  static bool valid(const cairn_FeatureObservations& m);
 
   FusionConfig config_;
   ccml::CcmlFilter filter_;
   std::map<std::uint16_t, Track> tracks_;
+  std::map<ccml::FeatureId, Tentative> tentative_;
   FusionCounters counters_;
 };
 

@@ -1,6 +1,7 @@
 #include "basestation/fusion_node.hpp"
 
 #include <cstdio>
+#include <type_traits>
 
 namespace cairn::base {
 
@@ -11,66 +12,90 @@ FusionNode::FusionNode(const dds::Participant& pp, const BaseConfig& cfg)
       odom_topic_(pp),
       feat_topic_(pp),
       corr_topic_(pp),
-      map_topic_(pp),
       odom_reader_(pp, odom_topic_, dds::latched_qos(cfg.history_depth)),
       feat_reader_(pp, feat_topic_, dds::latched_qos(cfg.history_depth)),
       corr_writer_(pp, corr_topic_, dds::latched_qos()),
-      map_writer_(pp, map_topic_, dds::latched_qos()) {}
+      map_publisher_(pp) {}
 
 std::string FusionNode::restore() {
   const RestoreReport r = store_.restore(&fusion_);
   char buf[256];
   std::snprintf(buf, sizeof buf,
-                "state in %s: %s, replayed %llu odometry + %llu feature messages from the log, %llu torn record(s) ignored; "
-                "%zu robot(s), %zu feature(s)",
+                "state in %s: %s, replayed %llu odometry + %llu feature messages from the log, %llu torn record(s) ignored, "
+                "%llu failed record(s) skipped; %zu robot(s), %zu feature(s)",
                 store_.dir().c_str(), r.snapshot_loaded ? "snapshot loaded" : "no snapshot (fresh start)",
                 static_cast<unsigned long long>(r.replayed_odometry), static_cast<unsigned long long>(r.replayed_features),
-                static_cast<unsigned long long>(r.torn_records), fusion_.robots().size(), fusion_.filter().feature_count());
+                static_cast<unsigned long long>(r.torn_records), static_cast<unsigned long long>(r.failed_records),
+                fusion_.robots().size(), fusion_.filter().feature_count());
   return buf;
+}
+
+template <typename M>
+void FusionNode::accept(const M& m, Nanos now) {
+  // Checked before it is logged: the log holds only messages that passed the message checks.
+  if (const auto bad = fusion_.check(m)) {
+    fusion_.count(*bad);
+    return;
+  }
+  store_.append(m, now);  // write-ahead: logged before it changes the state
+  try {
+    if constexpr (std::is_same_v<M, msg::OdometryIncrement>) {
+      fusion_.on_odometry(m);
+    } else {
+      fusion_.on_features(m);
+    }
+  } catch (const std::exception&) {
+    fusion_.count(Reject::kApplyFailed);  // never out of the loop
+  }
 }
 
 void FusionNode::poll(Nanos now) {
   // Odometry first, so features that refer to it can be applied at once.
-  odom_reader_.take([&](const cairn_OdometryIncrement& m, const dds_sample_info_t&) {
-    store_.append(m, now);  // write-ahead: logged before it changes the state
-    fusion_.on_odometry(m);
+  odom_reader_.take([&](const cairn_OdometryIncrement& s, const dds_sample_info_t&) {
+    msg::OdometryIncrement m;
+    if (dds::from_dds(s, &m)) accept(m, now);
+    else fusion_.count(Reject::kMalformed);
   });
-  feat_reader_.take([&](const cairn_FeatureObservations& m, const dds_sample_info_t&) {
-    store_.append(m, now);
-    fusion_.on_features(m);
+  feat_reader_.take([&](const cairn_FeatureObservations& s, const dds_sample_info_t&) {
+    msg::FeatureObservations m;
+    if (dds::from_dds(s, &m)) accept(m, now);
+    else fusion_.count(Reject::kMalformed);
   });
   store_.maybe_snapshot(fusion_, now);
   if (now >= next_correction_) {
     next_correction_ = now + cfg_.correction_period;
     for (std::uint16_t id : fusion_.robots()) {
-      cairn_PoseCorrection c;
+      msg::PoseCorrection c;
       if (fusion_.correction(id, now, &c)) {
         c.seq = ++correction_seq_;
-        corr_writer_.write(c);
+        cairn_PoseCorrection out{};
+        dds::to_dds(c, &out);
+        corr_writer_.write(out);
       }
     }
   }
   if (now >= next_map_) {
     next_map_ = now + cfg_.map_period;
-    fusion_.feature_map(now, map_msg_.get());
-    map_msg_->seq = ++map_seq_;
-    map_writer_.write(*map_msg_);
+    fusion_.landmarks(&landmarks_);
+    map_publisher_.publish(landmarks_, ++map_seq_, now);
   }
 }
 
 std::string FusionNode::summary() const {
   const FusionCounters& c = fusion_.counters();
-  char buf[320];
+  char buf[512];
   std::snprintf(buf, sizeof buf,
                 "fusion: odometry %llu applied (%llu dup, %llu gaps), features %llu applied (%llu dup, %llu late, %llu stale), "
-                "observations %llu used / %llu new / %llu rejected, invalid %llu, robots %zu (%llu localised), map %zu",
+                "observations %llu used / %llu new, landmarks pruned %llu, robots %zu (%llu localised, %llu restarted), map %zu; "
+                "rejected: %s",
                 static_cast<unsigned long long>(c.odometry_applied), static_cast<unsigned long long>(c.odometry_duplicates),
                 static_cast<unsigned long long>(c.odometry_gaps), static_cast<unsigned long long>(c.feature_messages_applied),
                 static_cast<unsigned long long>(c.feature_duplicates), static_cast<unsigned long long>(c.feature_late),
-                static_cast<unsigned long long>(c.feature_stale),
-                static_cast<unsigned long long>(c.observations_used), static_cast<unsigned long long>(c.observations_new_features),
-                static_cast<unsigned long long>(c.observations_rejected), static_cast<unsigned long long>(c.invalid_messages),
-                fusion_.robots().size(), static_cast<unsigned long long>(c.robots_localized), fusion_.filter().feature_count());
+                static_cast<unsigned long long>(c.feature_stale), static_cast<unsigned long long>(c.observations_used),
+                static_cast<unsigned long long>(c.observations_new_features), static_cast<unsigned long long>(c.landmarks_pruned),
+                fusion_.robots().size(), static_cast<unsigned long long>(c.robots_localized),
+                static_cast<unsigned long long>(c.robots_restarted), fusion_.filter().feature_count(),
+                c.rejected.summary().c_str());
   return buf;
 }
 

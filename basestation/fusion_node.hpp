@@ -1,14 +1,17 @@
 // The base station's DDS side of fusion: takes every robot's OdometryIncrement and
 // FeatureObservations (reliable, transient-local: a restarted base fetches what it
-// missed), logs each before applying it, and publishes PoseCorrection per robot and
-// the FeatureMap.
+// missed), converts them to Cairn's messages (common/dds/convert.hpp; a sample that had to
+// be clamped is counted invalid and dropped), logs each before applying it, and publishes
+// PoseCorrection per robot and the FeatureMap in pages.
 #pragma once
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "basestation/base_config.hpp"
 #include "basestation/fusion.hpp"
+#include "basestation/map_publisher.hpp"
 #include "basestation/state_store.hpp"
 #include "common/dds/topics.hpp"
 
@@ -26,20 +29,22 @@ class FusionNode {
   const Fusion& fusion() const { return fusion_; }
 
  private:
+  template <typename M>
+  void accept(const M& m, Nanos now);
+
   const BaseConfig& cfg_;
   Fusion fusion_;
   StateStore store_;
   dds::Topic<cairn_OdometryIncrement> odom_topic_;
   dds::Topic<cairn_FeatureObservations> feat_topic_;
   dds::Topic<cairn_PoseCorrection> corr_topic_;
-  dds::Topic<cairn_FeatureMap> map_topic_;
   dds::Reader<cairn_OdometryIncrement> odom_reader_;
   dds::Reader<cairn_FeatureObservations> feat_reader_;
   dds::Writer<cairn_PoseCorrection> corr_writer_;
-  dds::Writer<cairn_FeatureMap> map_writer_;
+  FeatureMapPublisher map_publisher_;
   Nanos next_correction_ = 0, next_map_ = 0;
   std::uint32_t correction_seq_ = 0, map_seq_ = 0;
-  std::unique_ptr<cairn_FeatureMap> map_msg_ = std::make_unique<cairn_FeatureMap>();
+  std::vector<msg::Landmark> landmarks_;
 };
 
 }  // namespace cairn::base

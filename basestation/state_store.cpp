@@ -62,7 +62,7 @@ RestoreReport StateStore::restore(Fusion* fusion) {
     char magic[8];
     std::uint32_t sizes[2];
     if (log.read(magic, 8) && std::memcmp(magic, kLogMagic, 8) == 0 && log.read(reinterpret_cast<char*>(sizes), sizeof sizes)) {
-      if (sizes[0] != sizeof(cairn_OdometryIncrement) || sizes[1] != sizeof(cairn_FeatureObservations)) {
+      if (sizes[0] != sizeof(msg::OdometryIncrement) || sizes[1] != sizeof(msg::FeatureObservations)) {
         throw std::runtime_error(log_path(generation_) + ": written by another version of cairn-base");
       }
       std::vector<char> buf;
@@ -81,15 +81,25 @@ RestoreReport StateStore::restore(Fusion* fusion) {
           ++rep.torn_records;
           break;
         }
-        if (type == kOdometry && size == sizeof(cairn_OdometryIncrement)) {
-          cairn_OdometryIncrement m;
+        // A logged message that throws is skipped and counted: a restart must never die on
+        // its own log (every restart would replay it again).
+        auto apply = [&](auto&& fn) {
+          try {
+            fn();
+          } catch (const std::exception&) {
+            fusion->count(Reject::kApplyFailed);
+            ++rep.failed_records;
+          }
+        };
+        if (type == kOdometry && size == sizeof(msg::OdometryIncrement)) {
+          msg::OdometryIncrement m;
           std::memcpy(&m, buf.data(), size);
-          fusion->on_odometry(m);
+          apply([&] { fusion->on_odometry(m); });
           ++rep.replayed_odometry;
-        } else if (type == kFeatures && size == sizeof(cairn_FeatureObservations)) {
-          cairn_FeatureObservations m;
+        } else if (type == kFeatures && size == sizeof(msg::FeatureObservations)) {
+          msg::FeatureObservations m;
           std::memcpy(&m, buf.data(), size);
-          fusion->on_features(m);
+          apply([&] { fusion->on_features(m); });
           ++rep.replayed_features;
         } else {
           ++rep.torn_records;
@@ -118,7 +128,7 @@ void StateStore::open_log() {
   if (log_) std::fclose(log_);
   log_ = std::fopen(log_path(generation_).c_str(), "wb");
   if (!log_) throw std::runtime_error("state store: cannot write " + log_path(generation_) + ": " + std::strerror(errno));
-  const std::uint32_t sizes[2] = {sizeof(cairn_OdometryIncrement), sizeof(cairn_FeatureObservations)};
+  const std::uint32_t sizes[2] = {sizeof(msg::OdometryIncrement), sizeof(msg::FeatureObservations)};
   std::fwrite(kLogMagic, 1, 8, log_);
   std::fwrite(sizes, sizeof sizes, 1, log_);
   std::fflush(log_);
@@ -140,8 +150,8 @@ void StateStore::write_record(std::uint8_t type, const void* data, std::uint32_t
   }
 }
 
-void StateStore::append(const cairn_OdometryIncrement& m, Nanos now) { write_record(kOdometry, &m, sizeof m, now); }
-void StateStore::append(const cairn_FeatureObservations& m, Nanos now) { write_record(kFeatures, &m, sizeof m, now); }
+void StateStore::append(const msg::OdometryIncrement& m, Nanos now) { write_record(kOdometry, &m, sizeof m, now); }
+void StateStore::append(const msg::FeatureObservations& m, Nanos now) { write_record(kFeatures, &m, sizeof m, now); }
 
 bool StateStore::maybe_snapshot(const Fusion& fusion, Nanos now, bool force) {
   if (!force && now - last_snapshot_ < snapshot_period_) return false;

@@ -22,6 +22,7 @@ struct RestoreReport {
   std::uint64_t generation = 0;
   std::uint64_t replayed_odometry = 0, replayed_features = 0;
   std::uint64_t torn_records = 0;  // incomplete or corrupt records at the log's end (ignored)
+  std::uint64_t failed_records = 0;  // records that threw when applied: skipped and counted (Reject::kApplyFailed)
 };
 
 class StateStore {
@@ -34,8 +35,8 @@ class StateStore {
 
   /// Loads the snapshot (if any) into `fusion` and replays the log through it; opens the log for appending.
   RestoreReport restore(Fusion* fusion);
-  void append(const cairn_OdometryIncrement& m, Nanos now);
-  void append(const cairn_FeatureObservations& m, Nanos now);
+  void append(const msg::OdometryIncrement& m, Nanos now);
+  void append(const msg::FeatureObservations& m, Nanos now);
   /// Writes a new snapshot when the period has passed (or `force`); starts a new log.
   bool maybe_snapshot(const Fusion& fusion, Nanos now, bool force = false);
 

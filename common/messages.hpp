@@ -54,6 +54,10 @@ struct OdometryIncrement {
   Pose2 delta;
   Cov3 delta_cov{};
   Pose2 local_pose;
+  /// Chosen once at each start of the robot process (its boot time or a random number); its
+  /// seq and local frame restart with it. The base treats a new epoch as a restart and a
+  /// retired one as stale. 0 = not set (a robot that predates epochs).
+  std::uint32_t boot_epoch = 0;
 };
 
 /// One laser scan with the corrected local pose of the sensor at its first beam.
@@ -85,6 +89,7 @@ struct FeatureObservations {
   Nanos stamp = 0;
   Pose2 local_pose;
   std::uint32_t odom_seq = 0;  // last OdometryIncrement folded into local_pose
+  std::uint32_t boot_epoch = 0;  // as OdometryIncrement::boot_epoch
   std::uint8_t n_features = 0;
   std::array<Feature, kMaxFeatures> features{};
 };

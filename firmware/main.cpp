@@ -3,6 +3,7 @@
 // is a status-only fleet member (no hardware).
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <random>
 
 #include "common/config.hpp"
 #include "common/log.hpp"
@@ -62,6 +63,7 @@ int run(const std::string& config_path, int id_override, const std::string& name
     return 0;
   }
 
+  cfg.executive.boot_epoch = std::random_device{}();  // a restart is a new epoch at the base
   logger().start();
   dds::Participant pp(cfg.dds);
   CAIRN_LOG_INFO("robot", "{}; DDS {}", describe(cfg), pp.describe());

@@ -127,6 +127,12 @@ FeatureId CcmlFilter::add_feature_prior(const Vec2& position, const Mat2& cov) {
   return id;
 }
 
+void CcmlFilter::remove_feature(FeatureId id) {
+  const Slot s{feature_offset(id), 2};
+  features_.erase(id);
+  erase(s.offset, s.dim);
+}
+
 Vec2 CcmlFilter::feature(FeatureId id) const { return x_.segment<2>(feature_offset(id)); }
 Mat2 CcmlFilter::feature_cov(FeatureId id) const {
   const int o = feature_offset(id);
@@ -142,22 +148,31 @@ std::vector<FeatureId> CcmlFilter::feature_ids() const {
 
 // ---------------------------------------------------------------- prediction
 
-void CcmlFilter::predict(RobotId id, const Pose2& delta, const Mat3& delta_cov) {
+bool CcmlFilter::predict(RobotId id, const Pose2& delta, const Mat3& delta_cov) {
   const int o = robot_offset(id);
   const auto n = static_cast<Eigen::Index>(n_);
   const Pose2 pose = pose_at(o, x_);
   Mat3 F, G;
   compose_jacobians(pose, delta, &F, &G);
-  x_.segment<3>(o) = compose(pose, delta).vector();
+  const Vec3 x_new = compose(pose, delta).vector();
   // P ← F_full P F_fullᵀ where F_full is the identity except the robot's block: O(n).
-  P_.block(o, 0, 3, n) = (F * P_.block(o, 0, 3, n)).eval();
-  P_.block(0, o, n, 3) = (P_.block(0, o, n, 3) * F.transpose()).eval();
-  P_.block<3, 3>(o, o) += G * delta_cov * G.transpose();
+  // Computed aside first: a prediction that would make the state non-finite is refused.
+  const Eigen::MatrixXd rows = F * P_.block(o, 0, 3, n);
+  Mat3 corner = rows.middleCols<3>(o) * F.transpose() + G * delta_cov * G.transpose();
+  if (!x_new.allFinite() || !rows.allFinite() || !corner.allFinite()) return false;
+  x_.segment<3>(o) = x_new;
+  P_.block(o, 0, 3, n) = rows;
+  P_.block(0, o, n, 3) = rows.transpose();
+  P_.block<3, 3>(o, o) = 0.5 * (corner + corner.transpose());
+  return true;
 }
 
-void CcmlFilter::add_process_noise(RobotId id, const Mat3& q_global) {
+bool CcmlFilter::add_process_noise(RobotId id, const Mat3& q_global) {
   const int o = robot_offset(id);
-  P_.block<3, 3>(o, o) += q_global;
+  const Mat3 c = P_.block<3, 3>(o, o) + q_global;
+  if (!c.allFinite()) return false;
+  P_.block<3, 3>(o, o) = c;
+  return true;
 }
 
 // ---------------------------------------------------------------- measurements
@@ -251,9 +266,18 @@ UpdateResult CcmlFilter::update(std::span<const Measurement> ms, int iterations,
       S.block<2, 2>(r, r) += ms[k].R;
     }
     S = 0.5 * (S + S.transpose()).eval();
+    // Eigen's LLT does not notice NaN: check finiteness first. Refusals leave the state as it was.
+    if (!S.allFinite() || !nu.allFinite() || !PHt.allFinite()) {
+      result.refused = true;
+      return result;
+    }
     const Eigen::LLT<Eigen::MatrixXd> llt(S);
     if (llt.info() != Eigen::Success) return result;  // not positive definite: refuse the update
     K = llt.solve(PHt.transpose()).transpose();
+    if (!K.allFinite()) {
+      result.refused = true;
+      return result;
+    }
     // NIS is a statement about the prior: take it from the first linearisation.
     if (it == 0) result.nis = nu.dot(llt.solve(nu));
     const Eigen::VectorXd x_next = x_prior + K * nu;
@@ -266,9 +290,13 @@ UpdateResult CcmlFilter::update(std::span<const Measurement> ms, int iterations,
   }
   // Joseph form without H: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − K(PHᵀ)ᵀ − (PHᵀ)Kᵀ + K S Kᵀ.
   const Eigen::MatrixXd KPHt = K * PHt.transpose();
-  Pn -= KPHt + KPHt.transpose();
-  Pn.noalias() += K * S * K.transpose();
-  Pn = 0.5 * (Pn + Pn.transpose()).eval();
+  Eigen::MatrixXd P_next = Pn - KPHt - KPHt.transpose();
+  P_next.noalias() += K * S * K.transpose();
+  if (!x_iter.allFinite() || !P_next.allFinite()) {
+    result.refused = true;
+    return result;
+  }
+  Pn = 0.5 * (P_next + P_next.transpose());
   x_.head(n) = x_iter;
   result.applied = true;
   result.dof = static_cast<int>(m2);

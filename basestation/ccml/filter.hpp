@@ -42,6 +42,7 @@ struct Innovation {
 
 struct UpdateResult {
   bool applied = false;
+  bool refused = false;  // not applied because the innovation, gain or result was not finite (state unchanged)
   double nis = 0.0;    // joint normalised innovation squared
   int dof = 0;         // 2 per measurement
 };
@@ -68,16 +69,19 @@ class CcmlFilter {
   /// Adds a feature at a known position/covariance, uncorrelated (for tests, priors).
   FeatureId add_feature_prior(const Vec2& position, const Mat2& cov);
   bool has_feature(FeatureId id) const { return features_.count(id) != 0; }
+  /// Removes a feature (marginalises it out); O(n²).
+  void remove_feature(FeatureId id);
   Vec2 feature(FeatureId id) const;
   Mat2 feature_cov(FeatureId id) const;
   std::vector<FeatureId> feature_ids() const;
   std::size_t feature_count() const { return features_.size(); }
 
   // ---- estimation
-  /// x_r ← x_r ⊕ δ with δ's covariance Q (robot frame); O(n).
-  void predict(RobotId id, const Pose2& delta, const Mat3& delta_cov);
-  /// Adds process noise (global frame) to a robot's covariance.
-  void add_process_noise(RobotId id, const Mat3& q_global);
+  /// x_r ← x_r ⊕ δ with δ's covariance Q (robot frame); O(n). False (state unchanged) when
+  /// the result would not be finite.
+  bool predict(RobotId id, const Pose2& delta, const Mat3& delta_cov);
+  /// Adds process noise (global frame) to a robot's covariance; false (unchanged) if not finite.
+  bool add_process_noise(RobotId id, const Mat3& q_global);
   /// Innovation and its covariance for one measurement (individual compatibility).
   Innovation innovation(const Measurement& m) const;
   /// Joint innovation and covariance S = H P Hᵀ + R for a set of measurements (joint compatibility).

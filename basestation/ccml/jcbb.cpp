@@ -1,6 +1,7 @@
 #include "basestation/ccml/jcbb.hpp"
 
 #include <boost/math/distributions/chi_squared.hpp>
+#include <algorithm>
 #include <cmath>
 
 namespace cairn::ccml {
@@ -53,6 +54,27 @@ struct Search {
   std::optional<Pose2> best_pose;
   std::size_t nodes = 0;
   bool exhausted = false;
+
+  // Relocation: complete hypotheses (>= 2 pairings) with their aligned poses, best first,
+  // to find the best rival whose pose is distinct from the winner's.
+  struct Alternative {
+    int pairings;
+    double nis;
+    Pose2 pose;
+  };
+  std::vector<Alternative> alternatives;
+  static constexpr std::size_t kKeep = 64;
+  static bool better(const Alternative& a, const Alternative& b) {
+    return a.pairings != b.pairings ? a.pairings > b.pairings : a.nis < b.nis;
+  }
+  void remember(int pairings, double nis, const Pose2& pose) {
+    alternatives.push_back({pairings, nis, pose});
+    if (alternatives.size() >= 2 * kKeep) trim();
+  }
+  void trim() {
+    std::sort(alternatives.begin(), alternatives.end(), better);
+    if (alternatives.size() > kKeep) alternatives.resize(kKeep);
+  }
 
   // Observed points in the observer's frame and their covariance (relocation mode).
   std::vector<Vec2> local;
@@ -137,6 +159,7 @@ struct Search {
     }
     const int m = static_cast<int>(z.size());
     if (i == m) {
+      if (relocation && pairings >= 2 && pose) remember(pairings, nis, *pose);
       if (pairings > best_pairings || (pairings == best_pairings && pairings > 0 && nis < best_nis)) {
         // In relocation mode one pairing says nothing about the pose: require two.
         if (relocation && pairings < 2) return;
@@ -159,8 +182,12 @@ struct Search {
       current[i] = -1;
       if (exhausted) return;
     }
-    // Leave observation i unpaired, if that can still beat the best.
-    if (pairings + (m - i - 1) >= best_pairings && !(pairings + (m - i - 1) == best_pairings && best_pairings > 0 && nis >= best_nis)) {
+    // Leave observation i unpaired, if that can still beat the best (relocation: or be a
+    // rival within the margin, which the ambiguity test needs to see).
+    const int reach = pairings + (m - i - 1);
+    if (relocation) {
+      if (reach >= best_pairings - cfg.relocation_margin) recurse(i + 1, pairings, nis, pose);
+    } else if (reach >= best_pairings && !(reach == best_pairings && best_pairings > 0 && nis >= best_nis)) {
       recurse(i + 1, pairings, nis, pose);
     }
   }
@@ -216,6 +243,18 @@ JcbbResult jcbb(const CcmlFilter& filter, RobotId observer, std::span<const Rang
   r.budget_exhausted = s.exhausted;
   r.relocation_mode = s.relocation;
   r.aligned_pose = s.best_pose;
+  if (s.relocation && s.best_pose) {
+    s.trim();
+    const Pose2 b = *s.best_pose;
+    for (const auto& a : s.alternatives) {
+      const bool distinct = std::hypot(a.pose.x - b.x, a.pose.y - b.y) > cfg.relocation_distinct_m ||
+                            std::abs(normalize_angle(a.pose.theta - b.theta)) > cfg.relocation_distinct_rad;
+      if (!distinct) continue;
+      r.rival_pairings = a.pairings;
+      break;
+    }
+    r.ambiguous = r.rival_pairings > 0 && r.rival_pairings + cfg.relocation_margin > r.pairings;
+  }
   return r;
 }
 

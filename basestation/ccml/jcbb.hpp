@@ -24,6 +24,12 @@ struct JcbbConfig {
   std::size_t max_nodes = 200000;  // search budget per call; exhausting it is reported
   /// Use the location-independent test when the observer's position std exceeds this (m).
   double relocation_sigma = 2.0;
+  /// Relocation: the best hypothesis must have this many more pairings than the best rival
+  /// whose aligned pose is distinct (differs by more than the two tolerances below);
+  /// otherwise the result is `ambiguous` (a symmetric layout fits several poses).
+  int relocation_margin = 1;
+  double relocation_distinct_m = 0.5;
+  double relocation_distinct_rad = 0.2;
 };
 
 struct JcbbResult {
@@ -36,6 +42,10 @@ struct JcbbResult {
   bool relocation_mode = false;
   /// In relocation mode with >= 2 pairings: the observer pose that aligns them.
   std::optional<Pose2> aligned_pose;
+  /// Relocation mode: pairings of the best hypothesis with a distinct pose (0: none), and
+  /// whether it comes within relocation_margin of the best.
+  int rival_pairings = 0;
+  bool ambiguous = false;
 };
 
 /// χ² quantile (inverse CDF) for `dof` degrees of freedom.

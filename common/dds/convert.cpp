@@ -38,6 +38,7 @@ void to_dds(const msg::OdometryIncrement& m, cairn_OdometryIncrement* out) {
   out->delta = to_msg(m.delta);
   copy_array(m.delta_cov, out->delta_cov);
   out->local_pose = to_msg(m.local_pose);
+  out->boot_epoch = m.boot_epoch;
 }
 
 bool from_dds(const cairn_OdometryIncrement& m, msg::OdometryIncrement* out) {
@@ -48,6 +49,7 @@ bool from_dds(const cairn_OdometryIncrement& m, msg::OdometryIncrement* out) {
   out->delta = from_msg(m.delta);
   copy_array(m.delta_cov, &out->delta_cov);
   out->local_pose = from_msg(m.local_pose);
+  out->boot_epoch = m.boot_epoch;
   return true;
 }
 
@@ -90,6 +92,7 @@ void to_dds(const msg::FeatureObservations& m, cairn_FeatureObservations* out) {
   out->stamp_ns = m.stamp;
   out->local_pose = to_msg(m.local_pose);
   out->odom_seq = m.odom_seq;
+  out->boot_epoch = m.boot_epoch;
   const std::size_t n = std::min<std::size_t>(m.n_features, msg::kMaxFeatures);
   out->n_features = static_cast<std::uint8_t>(n);
   for (std::size_t i = 0; i < n; ++i) {
@@ -110,6 +113,7 @@ bool from_dds(const cairn_FeatureObservations& m, msg::FeatureObservations* out)
   out->stamp = m.stamp_ns;
   out->local_pose = from_msg(m.local_pose);
   out->odom_seq = m.odom_seq;
+  out->boot_epoch = m.boot_epoch;
   out->n_features = clamp_count(m.n_features, msg::kMaxFeatures, &ok);
   for (std::size_t i = 0; i < out->n_features; ++i) {
     const cairn_Feature& f = m.features[i];
@@ -179,6 +183,9 @@ bool from_dds(const cairn_TaskAssignment& m, msg::TaskAssignment* out) {
 void to_dds_page(const msg::Landmark* all, std::size_t count, std::size_t first, std::uint32_t seq, Nanos stamp,
                  cairn_FeatureMap* out) {
   out->robot_id = 0;
+  out->page = static_cast<std::uint16_t>(first / msg::kMaxLandmarks);
+  out->n_pages = static_cast<std::uint16_t>(feature_map_pages(count));
+  out->total = static_cast<std::uint32_t>(count);
   out->seq = seq;
   out->stamp_ns = stamp;
   out->n_landmarks = 0;

@@ -26,7 +26,11 @@ bool from_dds(const cairn_FeatureObservations& m, msg::FeatureObservations* out)
 bool from_dds(const cairn_PoseCorrection& m, msg::PoseCorrection* out);
 bool from_dds(const cairn_TaskAssignment& m, msg::TaskAssignment* out);
 
-/// One page of a landmark map: landmarks[first, first + MAX_LANDMARKS) of `all`.
+/// Pages a map of `count` landmarks takes (at least one: an empty map is one empty page).
+inline std::size_t feature_map_pages(std::size_t count) { return count == 0 ? 1 : (count + msg::kMaxLandmarks - 1) / msg::kMaxLandmarks; }
+
+/// One page of a landmark map: landmarks[first, first + MAX_LANDMARKS) of `all`; `first` is a
+/// multiple of MAX_LANDMARKS and sets the page index, `count` sets n_pages and total.
 void to_dds_page(const msg::Landmark* all, std::size_t count, std::size_t first, std::uint32_t seq, Nanos stamp,
                  cairn_FeatureMap* out);
 

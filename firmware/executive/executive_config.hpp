@@ -22,6 +22,9 @@ namespace cairn::firmware {
 
 struct ExecutiveConfig {
   std::uint16_t robot_id = 1;
+  // Tells the base a restart from a late message of the previous run (the seq counters
+  // begin again): cairn-robot draws it at random once per process start; not configured.
+  std::uint32_t boot_epoch = 0;
   // Devices.
   std::string lms_uri;
   lms::LmsDriverConfig lms;

@@ -116,6 +116,7 @@ void RobotCore::on_scan(const lms::LmsScan& scan, Nanos now, RobotOutputs& out) 
   // OdometryIncrement: the corrected motion since the previous scan and its covariance.
   msg::OdometryIncrement inc;
   inc.robot_id = cfg_.robot_id;
+  inc.boot_epoch = cfg_.boot_epoch;
   inc.seq = ++odom_seq_;
   inc.t0 = last_odom_t_ ? last_odom_t_ : scan.stamp;
   inc.t1 = scan.stamp;
@@ -148,6 +149,7 @@ void RobotCore::on_scan(const lms::LmsScan& scan, Nanos now, RobotOutputs& out) 
   if (features_.count > 0) {
     msg::FeatureObservations& f = *feature_msg_;
     f.robot_id = cfg_.robot_id;
+    f.boot_epoch = cfg_.boot_epoch;
     f.seq = ++feature_seq_;
     f.stamp = scan.stamp;
     f.local_pose = u.pose;

@@ -9,7 +9,6 @@
 #include <sstream>
 
 #include "basestation/state_store.hpp"
-#include "common/dds/topics.hpp"
 #include "tests/support/fleet_scenario.hpp"
 
 namespace cairn::base {
@@ -19,6 +18,7 @@ using testing::FleetScenario;
 
 FusionConfig config_for(const FleetScenario& s, bool know_all = true) {
   FusionConfig c;
+  c.allow_unknown_robots = !know_all;  // the others join unlisted, by relocation
   for (std::size_t r = 0; r < s.starts.size(); ++r) {
     if (!know_all && r > 0) continue;
     RobotPrior p;
@@ -32,7 +32,7 @@ FusionConfig config_for(const FleetScenario& s, bool know_all = true) {
 
 void feed(Fusion* f, const testing::FleetMessage& m) {
   std::visit([&](const auto& msg) {
-    if constexpr (std::is_same_v<std::decay_t<decltype(msg)>, cairn_OdometryIncrement>) {
+    if constexpr (std::is_same_v<std::decay_t<decltype(msg)>, msg::OdometryIncrement>) {
       f->on_odometry(msg);
     } else {
       f->on_features(msg);
@@ -58,13 +58,13 @@ TEST(Fusion, ThreeRobotsStayLocalisedAndMapThePoles) {
     EXPECT_LT(best, 0.2) << "feature " << id;
   }
   EXPECT_GT(f.counters().observations_used, 1000u);
-  cairn_PoseCorrection c;
+  msg::PoseCorrection c;
   ASSERT_TRUE(f.correction(2, 123, &c));
   EXPECT_EQ(c.robot_id, 2);
   EXPECT_NEAR(c.global_pose.x, f.filter().robot_pose(2).x, 1e-12);
-  cairn_FeatureMap map;
-  f.feature_map(5, &map);
-  EXPECT_EQ(map.n_landmarks, f.filter().feature_count());
+  std::vector<msg::Landmark> map;
+  f.landmarks(&map);
+  EXPECT_EQ(map.size(), f.filter().feature_count());
 }
 
 TEST(Fusion, RobotWithUnknownStartIsLocalisedByRelocation) {
@@ -76,18 +76,18 @@ TEST(Fusion, RobotWithUnknownStartIsLocalisedByRelocation) {
   }
   EXPECT_FALSE(f.localized(2));
   for (; k < s.messages.size(); ++k) feed(&f, s.messages[k]);
-  ASSERT_TRUE(f.localized(2));
+  ASSERT_TRUE(f.localized(2)) << f.counters().rejected.summary();
   EXPECT_LT(position_error(f, s, 1), 0.3);
 }
 
 TEST(Fusion, BadDuplicateLateAndMissingMessagesAreCountedNotFatal) {
   const FleetScenario s = testing::make_fleet_scenario(1, 200);
   Fusion f(config_for(s));
-  std::vector<cairn_OdometryIncrement> odo;
-  std::vector<cairn_FeatureObservations> feats;
+  std::vector<msg::OdometryIncrement> odo;
+  std::vector<msg::FeatureObservations> feats;
   for (const auto& m : s.messages) {
-    if (auto* o = std::get_if<cairn_OdometryIncrement>(&m)) odo.push_back(*o);
-    if (auto* ft = std::get_if<cairn_FeatureObservations>(&m)) feats.push_back(*ft);
+    if (auto* o = std::get_if<msg::OdometryIncrement>(&m)) odo.push_back(*o);
+    if (auto* ft = std::get_if<msg::FeatureObservations>(&m)) feats.push_back(*ft);
   }
   // Features before their odometry wait; then the odometry releases them.
   EXPECT_EQ(f.on_features(feats[0]), Fusion::Result::kBuffered);
@@ -95,16 +95,19 @@ TEST(Fusion, BadDuplicateLateAndMissingMessagesAreCountedNotFatal) {
   EXPECT_EQ(f.counters().feature_messages_applied, 1u);
   EXPECT_EQ(f.on_features(feats[0]), Fusion::Result::kDuplicate);
   // NaN and a broken covariance are rejected.
-  cairn_OdometryIncrement bad = odo[1];
+  msg::OdometryIncrement bad = odo[1];
   bad.delta.x = std::nan("");
   EXPECT_EQ(f.on_odometry(bad), Fusion::Result::kRejected);
-  cairn_FeatureObservations badf = feats[1];
+  msg::FeatureObservations badf = feats[1];
   badf.features[0].cov[0] = -1;
   EXPECT_EQ(f.on_features(badf), Fusion::Result::kRejected);
   badf = feats[1];
   badf.n_features = 200;
   EXPECT_EQ(f.on_features(badf), Fusion::Result::kRejected);
-  EXPECT_EQ(f.counters().invalid_messages, 3u);
+  EXPECT_EQ(f.counters().rejected[Reject::kNonFinite], 1u);
+  EXPECT_EQ(f.counters().rejected[Reject::kBadCovariance], 1u);
+  EXPECT_EQ(f.counters().rejected[Reject::kMalformed], 1u);
+  EXPECT_EQ(f.counters().rejected.total(), 3u);
   // A gap in odometry is bridged with the local poses.
   EXPECT_EQ(f.on_odometry(odo[1]), Fusion::Result::kApplied);
   EXPECT_EQ(f.on_odometry(odo[5]), Fusion::Result::kApplied);
@@ -117,12 +120,12 @@ TEST(Fusion, BadDuplicateLateAndMissingMessagesAreCountedNotFatal) {
   EXPECT_EQ(f.on_features(feats[3]), Fusion::Result::kApplied);
   EXPECT_EQ(f.counters().feature_late, 1u);
   // ... unless their odometry was never applied (skipped by the gap) or left the window: stale.
-  cairn_FeatureObservations ancient = feats[4];
+  msg::FeatureObservations ancient = feats[4];
   ancient.odom_seq = 4;  // an increment the gap skipped
   EXPECT_EQ(f.on_features(ancient), Fusion::Result::kRejected);
   EXPECT_EQ(f.counters().feature_stale, 1u);
   const Pose2 est = f.filter().robot_pose(1);
-  const Pose2 want = compose(s.starts[0], dds::from_msg(odo[7].local_pose));
+  const Pose2 want = compose(s.starts[0], odo[7].local_pose);
   EXPECT_NEAR(est.x, want.x, 0.1);
 }
 
@@ -131,11 +134,11 @@ TEST(Fusion, LateFeaturesGiveTheSameMapAsInOrderOnes) {
   // re-expressed observations must give (nearly) the same estimate as in-order delivery.
   const FleetScenario s = testing::make_fleet_scenario(2, 400);
   Fusion in_order(config_for(s)), late(config_for(s));
-  std::deque<cairn_FeatureObservations> held;
+  std::deque<msg::FeatureObservations> held;
   int odo_since = 0;
   for (const auto& m : s.messages) {
     feed(&in_order, m);
-    if (const auto* o = std::get_if<cairn_OdometryIncrement>(&m)) {
+    if (const auto* o = std::get_if<msg::OdometryIncrement>(&m)) {
       late.on_odometry(*o);
       if (++odo_since >= 4) {  // two steps of two robots
         while (!held.empty()) {
@@ -145,7 +148,7 @@ TEST(Fusion, LateFeaturesGiveTheSameMapAsInOrderOnes) {
         odo_since = 0;
       }
     } else {
-      held.push_back(std::get<cairn_FeatureObservations>(m));
+      held.push_back(std::get<msg::FeatureObservations>(m));
     }
   }
   EXPECT_GT(late.counters().feature_late, 100u);

@@ -181,5 +181,35 @@ TEST(CcmlFilter, RejectsDuplicatesAndUnknowns) {
   EXPECT_FALSE(f.update({}).applied);
 }
 
+// Issue 16 (b): a prediction or update that would make the joint state non-finite is
+// refused and leaves the state exactly as it was (Eigen's LLT does not notice NaN).
+TEST(CcmlFilter, NonFinitePredictionIsRefusedAndStateUnchanged) {
+  CcmlFilter f = make_filter();
+  const Eigen::VectorXd x0 = f.mean();
+  const Eigen::MatrixXd P0 = f.covariance();
+  EXPECT_FALSE(f.predict(1, {1e308, 1e308, 0.0}, Vec3(1e308, 1e308, 1.0).asDiagonal()));
+  EXPECT_FALSE(f.predict(2, {0.1, 0, std::nan("")}, Mat3::Identity() * 1e-4));
+  EXPECT_EQ(f.mean(), x0);
+  EXPECT_EQ(f.covariance(), P0);
+  EXPECT_TRUE(f.predict(1, {0.1, 0, 0}, Mat3::Identity() * 1e-4));  // a sane one still goes through
+}
+
+TEST(CcmlFilter, NonFiniteUpdateIsRefusedAndStateUnchanged) {
+  CcmlFilter f = make_filter();
+  const Eigen::VectorXd x0 = f.mean();
+  const Eigen::MatrixXd P0 = f.covariance();
+  const FeatureId feat = f.feature_ids().front();
+  Measurement inf_noise{1, Measurement::Target::kFeature, feat, {4.0, 0.3}, Mat2::Identity() * std::numeric_limits<double>::infinity()};
+  Measurement nan_range{1, Measurement::Target::kFeature, feat, {std::nan(""), 0.3}, meas_cov()};
+  for (const Measurement& m : {inf_noise, nan_range}) {
+    const UpdateResult r = f.update(std::span<const Measurement>(&m, 1));
+    EXPECT_FALSE(r.applied);
+    EXPECT_TRUE(r.refused);
+    EXPECT_TRUE(f.mean().allFinite());
+    EXPECT_EQ(f.mean(), x0);
+    EXPECT_EQ(f.covariance(), P0);
+  }
+}
+
 }  // namespace
 }  // namespace cairn::ccml

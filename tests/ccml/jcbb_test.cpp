@@ -122,6 +122,7 @@ TEST(Jcbb, RobotJoiningWithTensOfMetresOfUncertaintyIsLocalisedIntoTheMap) {
   ASSERT_EQ(r.pairings, static_cast<int>(zs.size()));
   for (std::size_t i = 0; i < zs.size(); ++i) EXPECT_EQ(*r.pairing[i], ids[truth_idx[i]]);
   ASSERT_TRUE(r.aligned_pose.has_value());
+  EXPECT_FALSE(r.ambiguous) << "rival with " << r.rival_pairings << " pairings";
 
   std::vector<Measurement> ms;
   for (std::size_t i = 0; i < zs.size(); ++i) ms.push_back({2, Measurement::Target::kFeature, *r.pairing[i], zs[i], Rs[i]});
@@ -132,6 +133,33 @@ TEST(Jcbb, RobotJoiningWithTensOfMetresOfUncertaintyIsLocalisedIntoTheMap) {
   EXPECT_LT(std::abs(normalize_angle(est.theta - truth.theta)), 0.03);
   EXPECT_LT(std::sqrt(f.robot_cov(2)(0, 0)), 0.2);  // from 30 m to decimetres
   EXPECT_GT(f.min_eigenvalue(), 0.0);
+}
+
+// Issue 16 (f): four landmarks on a square fit the observations at four poses (rotations by
+// 90°) equally well. Relocation must see the rival hypotheses and say it is ambiguous.
+TEST(Jcbb, SymmetricLayoutMakesRelocationAmbiguous) {
+  CcmlFilter f;
+  std::vector<FeatureId> ids;
+  const std::vector<Vec2> square{{4, 4}, {-4, 4}, {-4, -4}, {4, -4}};
+  for (const Vec2& p : square) ids.push_back(f.add_feature_prior(p, Mat2::Identity() * 1e-4));
+  const Pose2 truth{1.0, 0.5, 0.3};
+  f.add_robot(2, {0, 0, 0}, Vec3(900, 900, 10).asDiagonal());
+  std::vector<RangeBearing> zs;
+  for (const Vec2& p : square) zs.push_back(observe_point(truth, p));
+  const std::vector<Mat2> Rs(zs.size(), R());
+  const JcbbResult r = jcbb(f, 2, zs, Rs, ids);
+  ASSERT_TRUE(r.relocation_mode);
+  EXPECT_FALSE(r.budget_exhausted);
+  EXPECT_EQ(r.pairings, 4);
+  EXPECT_EQ(r.rival_pairings, 4);
+  EXPECT_TRUE(r.ambiguous);
+  // Break the symmetry with a fifth landmark seen too: no longer ambiguous.
+  ids.push_back(f.add_feature_prior({6, 1}, Mat2::Identity() * 1e-4));
+  zs.push_back(observe_point(truth, {6, 1}));
+  const std::vector<Mat2> Rs5(zs.size(), R());
+  const JcbbResult r5 = jcbb(f, 2, zs, Rs5, ids);
+  EXPECT_EQ(r5.pairings, 5);
+  EXPECT_FALSE(r5.ambiguous) << r5.rival_pairings;
 }
 
 }  // namespace

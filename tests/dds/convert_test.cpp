@@ -10,6 +10,13 @@
 namespace cairn {
 namespace {
 
+/// Stores an out-of-range value into an IDL enum field, as a hostile sample would carry.
+template <typename E>
+void set_raw_enum(E* field, int value) {
+  static_assert(sizeof(E) == sizeof(int));
+  std::memcpy(field, &value, sizeof value);
+}
+
 template <typename T>
 bool same_bytes(const T& a, const T& b) {
   return std::memcmp(&a, &b, sizeof(T)) == 0;
@@ -24,6 +31,7 @@ TEST(Convert, OdometryRoundTrip) {
   a.delta = {0.1, -0.02, 0.03};
   for (std::size_t i = 0; i < 9; ++i) a.delta_cov[i] = 0.001 * static_cast<double>(i + 1);
   a.local_pose = {3.0, 4.0, -1.0};
+  a.boot_epoch = 0xC0FFEE01u;
   cairn_OdometryIncrement d{};
   dds::to_dds(a, &d);
   EXPECT_EQ(d.seq, 42u);
@@ -35,6 +43,9 @@ TEST(Convert, OdometryRoundTrip) {
   EXPECT_EQ(b.t1, a.t1);
   EXPECT_EQ(b.delta_cov, a.delta_cov);
   EXPECT_DOUBLE_EQ(b.local_pose.theta, -1.0);
+  EXPECT_EQ(d.boot_epoch, 0xC0FFEE01u);
+  EXPECT_EQ(b.boot_epoch, a.boot_epoch);
+  EXPECT_EQ(msg::OdometryIncrement{}.boot_epoch, 0u);  // default: not set
 }
 
 TEST(Convert, LaserScanRoundTripAndClamp) {
@@ -70,6 +81,7 @@ TEST(Convert, FeaturesRoundTripAndClamp) {
   a.stamp = 99;
   a.local_pose = {1, 1, 0.5};
   a.odom_seq = 4;
+  a.boot_epoch = 77;
   a.n_features = 2;
   a.features[0] = {msg::FeatureKind::kLandmark, -1, 4.0, 0.3, {0.0009, 0, 0, 1e-4}};
   a.features[1] = {msg::FeatureKind::kRobot, 2, 6.0, -0.3, {0.001, 1e-6, 1e-6, 2e-4}};
@@ -77,6 +89,7 @@ TEST(Convert, FeaturesRoundTripAndClamp) {
   dds::to_dds(a, &d);
   EXPECT_EQ(d.features[1].kind, cairn_FEATURE_ROBOT);
   EXPECT_EQ(d.features[1].marker_id, 2);
+  EXPECT_EQ(d.boot_epoch, 77u);
   msg::FeatureObservations b;
   EXPECT_TRUE(dds::from_dds(d, &b));
   EXPECT_TRUE(same_bytes(a, b));
@@ -84,9 +97,7 @@ TEST(Convert, FeaturesRoundTripAndClamp) {
   EXPECT_FALSE(dds::from_dds(d, &b));
   EXPECT_EQ(b.n_features, msg::kMaxFeatures);
   d.n_features = 1;
-  const int bad_kind = 9;  // as a hostile writer would send it
-  static_assert(sizeof d.features[0].kind == sizeof bad_kind);
-  std::memcpy(&d.features[0].kind, &bad_kind, sizeof bad_kind);
+  set_raw_enum(&d.features[0].kind, 9);
   EXPECT_FALSE(dds::from_dds(d, &b));
 }
 
@@ -120,8 +131,7 @@ TEST(Convert, CorrectionAndTaskRoundTrip) {
   EXPECT_TRUE(dds::from_dds(dt, &t2));
   EXPECT_TRUE(same_bytes(t, t2));
   dt.n_path = 1000;
-  const int bad_kind = 42;
-  std::memcpy(&dt.kind, &bad_kind, sizeof bad_kind);
+  set_raw_enum(&dt.kind, 42);
   EXPECT_FALSE(dds::from_dds(dt, &t2));
   EXPECT_EQ(t2.n_path, msg::kMaxPath);
   EXPECT_EQ(t2.kind, msg::TaskKind::kStop);
@@ -135,6 +145,9 @@ TEST(Convert, LandmarkPages) {
   for (std::size_t first = 0; first < all.size(); first += msg::kMaxLandmarks) {
     dds::to_dds_page(all.data(), all.size(), first, 1, 2, d.get());
     for (std::size_t i = 0; i < d->n_landmarks; ++i) EXPECT_EQ(d->landmarks[i].id, first + i);
+    EXPECT_EQ(d->page, first / msg::kMaxLandmarks);
+    EXPECT_EQ(d->n_pages, 3u);
+    EXPECT_EQ(d->total, 300u);
     seen += d->n_landmarks;
   }
   EXPECT_EQ(seen, all.size());

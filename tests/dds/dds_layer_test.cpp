@@ -116,10 +116,10 @@ void round_trip(const char* name, std::size_t padding, Fix&& fix) {
 
 // Sizes and padding of the generated C types (the same on x86-64, aarch64 and armhf: all
 // align 8-byte fields to 8). A changed IDL fails here first: update the padding with it.
-static_assert(sizeof(cairn_RobotStatus) == 864 && sizeof(cairn_OdometryIncrement) == 144 && sizeof(cairn_LaserScan) == 2320 &&
-              sizeof(cairn_FeatureObservations) == 1840 && sizeof(cairn_PoseCorrection) == 136 &&
+static_assert(sizeof(cairn_RobotStatus) == 864 && sizeof(cairn_OdometryIncrement) == 152 && sizeof(cairn_LaserScan) == 2320 &&
+              sizeof(cairn_FeatureObservations) == 1848 && sizeof(cairn_PoseCorrection) == 136 &&
               sizeof(cairn_TaskAssignment) == 1080 && sizeof(cairn_MapTile) == 4128 && sizeof(cairn_Bid) == 3088 &&
-              sizeof(cairn_FeatureMap) == 7192);
+              sizeof(cairn_FeatureMap) == 7200);
 
 TEST(DdsLayer, RoundTripEveryTopicType) {  // all nine @topic types of common/idl/cairn.idl
   // robot_id (2) + stop_text (3) + n_devices (3) + 6 x DeviceStatus after `state` (3)
@@ -132,16 +132,19 @@ TEST(DdsLayer, RoundTripEveryTopicType) {  // all nine @topic types of common/id
       set_text(d.reason, 'r');
     }
   });
-  round_trip<cairn_OdometryIncrement>("OdometryIncrement", 2, [](cairn_OdometryIncrement&) {});
+  // robot_id (2) + after boot_epoch at the end (4)
+  round_trip<cairn_OdometryIncrement>("OdometryIncrement", 2 + 4, [](cairn_OdometryIncrement&) {});
   round_trip<cairn_LaserScan>("LaserScan", 2 + 7, [](cairn_LaserScan&) {});
-  round_trip<cairn_FeatureObservations>("FeatureObservations", 2 + 3, [](cairn_FeatureObservations& s) {
+  // robot_id (2) + n_features before the 8-aligned features (7)
+  round_trip<cairn_FeatureObservations>("FeatureObservations", 2 + 7, [](cairn_FeatureObservations& s) {
     for (auto& f : s.features) f.kind = cairn_FEATURE_ROBOT;
   });
   round_trip<cairn_PoseCorrection>("PoseCorrection", 2, [](cairn_PoseCorrection&) {});
   round_trip<cairn_TaskAssignment>("TaskAssignment", 2 + 4 + 4 + 6, [](cairn_TaskAssignment& s) { s.kind = cairn_TASK_GOTO; });
   round_trip<cairn_MapTile>("MapTile", 2, [](cairn_MapTile&) {});
   round_trip<cairn_Bid>("Bid", 2 + 2, [](cairn_Bid&) {});
-  round_trip<cairn_FeatureMap>("FeatureMap", 2 + 6 + 128 * 4, [](cairn_FeatureMap&) {});  // Landmark: id then 4 to a double
+  // after n_pages (2), after n_landmarks (6), each Landmark: id then 4 to a double
+  round_trip<cairn_FeatureMap>("FeatureMap", 2 + 6 + 128 * 4, [](cairn_FeatureMap&) {});
 }
 
 TEST(DdsLayer, KeepLastIsPerRobot) {

@@ -3,6 +3,7 @@
 // transient-local with a deep history, then keeps the history available until killed.
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <memory>
 
 #include "common/dds/topics.hpp"
 #include "common/program.hpp"
@@ -31,17 +32,22 @@ int main(int argc, char** argv) {
   auto& clock = MonotonicClock::instance();
   Nanos next = clock.now();
   const Nanos period = static_cast<Nanos>(1e9 / rate);
+  auto feat = std::make_unique<cairn_FeatureObservations>();
   for (const auto& m : s.messages) {
     if (shutdown_requested()) break;
-    if (const auto* o = std::get_if<cairn_OdometryIncrement>(&m)) {
-      ow.write(*o);
+    if (const auto* o = std::get_if<msg::OdometryIncrement>(&m)) {
+      cairn_OdometryIncrement out{};
+      dds::to_dds(*o, &out);
+      ow.write(out);
       ++n_odo;
       if (o->robot_id == robots) {  // one simulated step done
         next += period;
         clock.sleep_until(next);
       }
     } else {
-      fw.write(std::get<cairn_FeatureObservations>(m));
+      *feat = {};
+      dds::to_dds(std::get<msg::FeatureObservations>(m), feat.get());
+      fw.write(*feat);
       ++n_feat;
     }
     if ((n_odo + n_feat) % 500 == 0) {

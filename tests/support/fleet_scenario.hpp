@@ -8,12 +8,12 @@
 #include <variant>
 #include <vector>
 
-#include "cairn.h"
+#include "common/messages.hpp"
 #include "common/se2.hpp"
 
 namespace cairn::testing {
 
-using FleetMessage = std::variant<cairn_OdometryIncrement, cairn_FeatureObservations>;
+using FleetMessage = std::variant<msg::OdometryIncrement, msg::FeatureObservations>;
 
 struct FleetScenario {
   std::vector<Vec2> poles;
@@ -42,27 +42,27 @@ inline FleetScenario make_fleet_scenario(int robots, int steps, std::uint64_t se
       truth[r] = compose(truth[r], step);
       Pose2 measured{step.x + sd * g(rng), step.y + sd * g(rng), step.theta + st * g(rng)};
       local[r] = compose(local[r], measured);
-      cairn_OdometryIncrement o{};
+      msg::OdometryIncrement o{};
       o.robot_id = static_cast<std::uint16_t>(r + 1);
       o.seq = ++odom_seq[r];
-      o.t0_ns = static_cast<std::int64_t>(k * dt * 1e9);
-      o.t1_ns = static_cast<std::int64_t>((k + 1) * dt * 1e9);
-      o.delta = {measured.x, measured.y, measured.theta};
+      o.t0 = static_cast<std::int64_t>(k * dt * 1e9);
+      o.t1 = static_cast<std::int64_t>((k + 1) * dt * 1e9);
+      o.delta = measured;
       o.delta_cov[0] = o.delta_cov[4] = sd * sd;
       o.delta_cov[8] = st * st;
-      o.local_pose = {local[r].x, local[r].y, local[r].theta};
+      o.local_pose = local[r];
       s.messages.emplace_back(o);
       if (k % 2 != 0) continue;  // features at half the odometry rate
-      cairn_FeatureObservations f{};
+      msg::FeatureObservations f{};
       f.robot_id = o.robot_id;
       f.seq = ++feat_seq[r];
-      f.stamp_ns = o.t1_ns;
+      f.stamp = o.t1;
       f.local_pose = o.local_pose;
       f.odom_seq = o.seq;
-      auto add = [&](const Vec2& p, cairn_FeatureKind kind, long marker) {
+      auto add = [&](const Vec2& p, msg::FeatureKind kind, long marker) {
         RangeBearing z = observe_point(truth[r], p);
-        if (z.range > 7.0 || z.range < 0.3 || f.n_features >= cairn_MAX_FEATURES) return;
-        cairn_Feature& ft = f.features[f.n_features++];
+        if (z.range > 7.0 || z.range < 0.3 || f.n_features >= msg::kMaxFeatures) return;
+        msg::Feature& ft = f.features[f.n_features++];
         ft.kind = kind;
         ft.marker_id = static_cast<std::int32_t>(marker);
         ft.range = z.range + sr * g(rng);
@@ -70,9 +70,9 @@ inline FleetScenario make_fleet_scenario(int robots, int steps, std::uint64_t se
         ft.cov[0] = sr * sr;
         ft.cov[3] = sb * sb;
       };
-      for (const Vec2& p : s.poles) add(p, cairn_FEATURE_LANDMARK, -1);
+      for (const Vec2& p : s.poles) add(p, msg::FeatureKind::kLandmark, -1);
       for (int q = 0; q < robots; ++q) {
-        if (q != r) add(truth[q].translation(), cairn_FEATURE_ROBOT, q + 1);
+        if (q != r) add(truth[q].translation(), msg::FeatureKind::kRobot, q + 1);
       }
       s.messages.emplace_back(f);
     }

@@ -5,7 +5,6 @@
 #include <thread>
 #include <cmath>
 
-#include "common/dds/convert.hpp"
 
 namespace cairn::sim {
 
@@ -24,8 +23,6 @@ struct FleetSim::Outbox : firmware::RobotOutputs {
   std::uniform_real_distribution<double> u{0.0, 1.0};
   std::deque<Item> items;
   std::uint64_t sent = 0, lost = 0;
-  cairn_OdometryIncrement odometry_dds{};
-  cairn_FeatureObservations features_dds{};
 
   bool lose() {
     ++sent;
@@ -86,14 +83,11 @@ void FleetSim::deliver(Nanos now) {
   for (auto& box : outboxes_) {  // robot order: deterministic whatever the threads did
     while (!box->items.empty() && box->items.front().due <= now) {
       const Outbox::Item& i = box->items.front();
-      // The base's fusion still takes the IDL structs (its move to Cairn's messages is in
-      // progress); the conversion is the same one its DDS node uses.
+      // Results (refusals included) are counted by the fusion and end in the summary.
       if (i.is_odometry) {
-        dds::to_dds(i.odometry, &box->odometry_dds);
-        fusion_->on_odometry(box->odometry_dds);
+        (void)fusion_->on_odometry(i.odometry);
       } else {
-        dds::to_dds(i.features, &box->features_dds);
-        fusion_->on_features(box->features_dds);
+        (void)fusion_->on_features(i.features);
       }
       box->items.pop_front();
     }
@@ -127,11 +121,11 @@ void FleetSim::run(const std::function<void(double)>& progress) {
         s.truth = r->truth();
         s.local = r->local_in_world();
         const auto id = static_cast<std::uint16_t>(r->id());
-        cairn_PoseCorrection c{};
+        msg::PoseCorrection c;
         // The base's correction carried to now with the robot's own local motion (what the
         // robot does with a PoseCorrection).
         if (fusion_->correction(id, now_, &c)) {
-          s.global = compose(dds::from_msg(c.local_to_global), r->core().local_pose());
+          s.global = compose(c.local_to_global, r->core().local_pose());
           s.has_global = true;
         }
         samples_.push_back(s);
@@ -167,10 +161,7 @@ void FleetSim::run(const std::function<void(double)>& progress) {
 
 std::vector<msg::Landmark> FleetSim::landmarks() const {
   std::vector<msg::Landmark> out;
-  for (ccml::FeatureId id : fusion_->filter().feature_ids()) {
-    const Vec2 p = fusion_->filter().feature(id);
-    out.push_back({id, p.x(), p.y(), msg::to_cov(Mat2(fusion_->filter().feature_cov(id)))});
-  }
+  fusion_->landmarks(&out);
   return out;
 }
 

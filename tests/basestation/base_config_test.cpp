@@ -1,0 +1,72 @@
+// cairn-base's configuration: the fusion robustness keys are read strictly (ranges, unknown
+// keys), and the map frame must come from the configuration.
+#include "basestation/base_config.hpp"
+
+#include <gtest/gtest.h>
+
+#include "common/config.hpp"
+
+namespace cairn::base {
+namespace {
+
+constexpr const char* kFleet = "[[robot]]\nid = 1\ninitial_pose = [0.0, 0.0, 0.0]\n";
+
+TEST(BaseConfig, ReadsTheFusionRobustnessKeys) {
+  const BaseConfig c = parse_base_config(std::string(R"(
+[fusion]
+max_landmarks = 500
+landmark_confirm_count = 4
+landmark_confirm_age = 60
+relocation_margin = 2
+restart_sigma = [0.5, 0.5, 0.1]
+max_step_m = 2.0
+max_step_rad = 1.0
+max_coordinate_m = 1000.0
+max_variance = 50.0
+max_range_m = 40.0
+max_seq_gap = 500
+innovation_confidence = 0.999
+[unknown_robot]
+allow = true
+max_robots = 2
+)") + kFleet, "base.toml");
+  const FusionConfig& f = c.fusion;
+  EXPECT_EQ(f.max_landmarks, 500u);
+  EXPECT_EQ(f.landmark_confirm_count, 4u);
+  EXPECT_EQ(f.landmark_confirm_age, 60u);
+  EXPECT_EQ(f.jcbb.relocation_margin, 2);
+  EXPECT_DOUBLE_EQ(f.restart_sigma.x(), 0.5);
+  EXPECT_DOUBLE_EQ(f.limits.max_step_m, 2.0);
+  EXPECT_DOUBLE_EQ(f.limits.max_step_rad, 1.0);
+  EXPECT_DOUBLE_EQ(f.limits.max_coordinate_m, 1000.0);
+  EXPECT_DOUBLE_EQ(f.limits.max_variance, 50.0);
+  EXPECT_DOUBLE_EQ(f.limits.max_range_m, 40.0);
+  EXPECT_EQ(f.limits.max_seq_gap, 500u);
+  EXPECT_DOUBLE_EQ(f.limits.innovation_confidence, 0.999);
+  EXPECT_TRUE(f.allow_unknown_robots);
+  EXPECT_EQ(f.max_unknown_robots, 2u);
+}
+
+TEST(BaseConfig, DefaultsRefuseUnknownRobots) {
+  const BaseConfig c = parse_base_config(kFleet, "base.toml");
+  EXPECT_FALSE(c.fusion.allow_unknown_robots);
+  EXPECT_EQ(c.fusion.max_landmarks, 2000u);
+  EXPECT_EQ(c.fusion.limits.max_seq_gap, 10000u);
+}
+
+TEST(BaseConfig, OutOfRangeAndUnknownKeysAreErrors) {
+  EXPECT_THROW(parse_base_config(std::string("[fusion]\nmax_landmarks = 0\n") + kFleet, "a.toml"), ConfigError);
+  EXPECT_THROW(parse_base_config(std::string("[fusion]\ninnovation_confidence = 1.5\n") + kFleet, "b.toml"), ConfigError);
+  EXPECT_THROW(parse_base_config(std::string("[fusion]\nrestart_sigma = [0.1, -1.0, 0.1]\n") + kFleet, "c.toml"), ConfigError);
+  EXPECT_THROW(parse_base_config(std::string("[unknown_robot]\nalow = true\n") + kFleet, "d.toml"), ConfigError);
+}
+
+TEST(BaseConfig, TheMapFrameMustComeFromTheConfiguration) {
+  // Fusion on, but no listed robot with a start pose: nothing defines the frame.
+  EXPECT_THROW(parse_base_config("[[robot]]\nid = 2\n", "e.toml"), ConfigError);
+  EXPECT_THROW(parse_base_config("[unknown_robot]\nallow = true\n", "f.toml"), ConfigError);
+  EXPECT_NO_THROW(parse_base_config("[fusion]\nenabled = false\n", "g.toml"));
+}
+
+}  // namespace
+}  // namespace cairn::base
