@@ -1,0 +1,122 @@
+// libFuzzer target: every network input of Cairn, as a hostile DDS peer could send it.
+// Cyclone's deserializer bounds strings and arrays by the IDL, but every field value is
+// the sender's: counts above capacity, NaN and infinities, bad enums, wild ids and seq.
+// The input is a sequence of samples: one op byte, then the raw bytes of the IDL struct
+// (zero-filled when the input runs out). Each goes through the one conversion
+// (common/dds/convert) and then, as the base's node and the robot's bridge would, into
+// the base's fusion (odometry, features) or the robot's side (corrections, tasks). At the
+// end the fusion's state is saved and restored, and op 0xFF feeds the rest of the input to
+// the state-file reader (which may refuse it with an exception, never crash).
+//
+// Op byte: low 3 bits select the type; bits 3-4 (+1) replace robot_id so that samples
+// reach the fleet's tracks instead of being refused as unknown robots.
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <exception>
+#include <sstream>
+#include <vector>
+
+#include "basestation/fusion.hpp"
+#include "common/dds/convert.hpp"
+
+namespace {
+
+using namespace cairn;
+
+template <typename T>
+const std::uint8_t* fill(T* out, const std::uint8_t* p, const std::uint8_t* end) {
+  std::memset(static_cast<void*>(out), 0, sizeof(T));
+  const std::size_t n = std::min<std::size_t>(sizeof(T), static_cast<std::size_t>(end - p));
+  std::memcpy(static_cast<void*>(out), p, n);
+  return p + n;
+}
+
+base::FusionConfig fleet() {
+  base::FusionConfig c;
+  base::RobotPrior a;
+  a.known = true;
+  a.sigma = Vec3(0.05, 0.05, 0.02);
+  c.robots[1] = a;
+  a.pose = {2.0, 1.0, 0.5};
+  c.robots[2] = a;
+  c.allow_unknown_robots = true;  // robots 3 and 4 join as unknown ones
+  c.max_unknown_robots = 1;
+  c.max_landmarks = 64;
+  return c;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  base::Fusion fusion(fleet());
+  const std::uint8_t* p = data;
+  const std::uint8_t* end = data + size;
+  while (p < end) {
+    const std::uint8_t op = *p++;
+    const auto robot = static_cast<std::uint16_t>(((op >> 3) & 3) + 1);
+    if (op == 0xFF) {  // the persisted state file
+      base::Fusion restored(fleet());
+      std::istringstream in(std::string(reinterpret_cast<const char*>(p), static_cast<std::size_t>(end - p)));
+      try {
+        restored.load(in);
+      } catch (const std::exception&) {
+      }
+      break;
+    }
+    switch (op & 7) {
+      case 0: {
+        cairn_OdometryIncrement d;
+        p = fill(&d, p, end);
+        d.robot_id = robot;
+        msg::OdometryIncrement m;
+        (void)dds::from_dds(d, &m);  // the node refuses a clamped sample; the fusion must survive it anyway
+        (void)fusion.on_odometry(m);
+        break;
+      }
+      case 1: {
+        cairn_FeatureObservations d;
+        p = fill(&d, p, end);
+        d.robot_id = robot;
+        msg::FeatureObservations m;
+        (void)dds::from_dds(d, &m);
+        (void)fusion.on_features(m);
+        break;
+      }
+      case 2: {
+        cairn_PoseCorrection d;
+        p = fill(&d, p, end);
+        msg::PoseCorrection m;
+        (void)dds::from_dds(d, &m);
+        break;
+      }
+      case 3: {
+        cairn_TaskAssignment d;
+        p = fill(&d, p, end);
+        msg::TaskAssignment m;
+        (void)dds::from_dds(d, &m);
+        break;
+      }
+      case 4: {
+        cairn_LaserScan d;
+        p = fill(&d, p, end);
+        msg::LaserScan m;
+        (void)dds::from_dds(d, &m);
+        break;
+      }
+      default: {  // what the node publishes: corrections and the landmark map
+        msg::PoseCorrection c;
+        (void)fusion.correction(robot, 0, &c);
+        std::vector<msg::Landmark> map;
+        fusion.landmarks(&map);
+        break;
+      }
+    }
+  }
+  // Whatever was accepted can be saved and restored.
+  std::stringstream state;
+  fusion.save(state);
+  base::Fusion restored(fleet());
+  restored.load(state);
+  return 0;
+}
