@@ -1,6 +1,8 @@
-// The CANopen master against two emulated CiA 402 drives on the user-space CAN bus:
-// boot-up to operation enabled, velocity commands reaching the wheels with feedback at
-// the SYNC rate, and every fault recovered or stopped safely within a stated bound.
+// The CANopen master against two emulated CiA 402 drives on the user-space CAN bus, in
+// real time: the transport (sockets, the hub's bus-off and error frames, threads) with
+// boot-up, velocity, bus-off and garbage. The master's timing logic (heartbeat consumer
+// bound, fault reset, disable_all, SYNC-loss stop) is asserted exactly on simulated time
+// in canopen_sim_test.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -107,91 +109,6 @@ TEST(CanopenDrives, BootUpToOperationEnabledAndVelocityReachesTheWheels) {
   EXPECT_EQ(b.master([](canopen::DriveMaster& m) { return m.drive_state(1); }), cia402::State::kOperationEnabled);
 }
 
-// With the shipped configuration (heartbeat every 50 ms, consumer timeout 110 ms: more
-// than 2 periods, so one late heartbeat is not a loss) the master declares the drive lost
-// 110 ms after the last heartbeat it received (checked every step, io_slice = 2 ms), and
-// the zero reaches the other drive with the next SYNC cycle (10 ms). So, measured from
-// the drive's last heartbeat on the bus (a listener on the bus stamps it): "lost" within
-// [110, 110 + 2] ms and the zero RPDO to the other drive on the bus by 110 + 10 ms, each
-// +5 ms for scheduling on a loaded machine. The docs' former "2 periods = 100 ms" is not
-// what the defaults give; from the moment the drive falls silent (0-50 ms after its last heartbeat) the
-// zero goes out 60-120 ms later.
-TEST(CanopenDrives, HeartbeatLossZeroesEveryDriveWithinTimeoutPlusOneCycle) {
-  Bench b;
-  const canopen::MasterConfig& mc = b.mc_;
-  ASSERT_EQ(mc.heartbeat_ms, 50);
-  ASSERT_EQ(mc.heartbeat_timeout, 110 * kNanosPerMilli);
-  ASSERT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
-  const std::int32_t cmd[] = {40000, 40000};
-  b.master([&](canopen::DriveMaster& m) { return (m.command(cmd), 0); });
-  ASSERT_GT(b.until([&] { return b.drives_[0]->with_node([](hil::DriveNode& n) { return n.target_velocity(); }) == 40000; }, 1.0), 0);
-  // A listener on the bus stamps drive 2's heartbeats and the master's RPDO1 to drive 1.
-  std::string err;
-  auto listener = can::UcanPort::open(b.hub_.path(), 101, false, &err);
-  ASSERT_TRUE(listener) << err;
-  ASSERT_GT(b.until([&] { return b.hub_.ports() >= 4; }, 1.0), 0);
-  std::atomic<Nanos> last_heartbeat{0}, silent_since{0}, zero_sent{0};
-  std::atomic<bool> listening{true};
-  std::thread listen([&] {
-    can::Frame f;
-    while (listening) {
-      if (!listener->receive(&f, 5 * kNanosPerMilli) || f.is_error()) continue;
-      if (f.id == 0x702) last_heartbeat = f.stamp;
-      const bool zero_rpdo = f.id == 0x201 && f.len >= 6 && f.data[2] == 0 && f.data[3] == 0 && f.data[4] == 0 && f.data[5] == 0;
-      if (zero_rpdo && silent_since.load() != 0 && zero_sent.load() == 0) zero_sent = f.stamp;
-    }
-  });
-  ASSERT_GT(b.until([&] { return last_heartbeat.load() != 0; }, 1.0), 0) << "no heartbeat from drive 2 seen";
-  silent_since = MonotonicClock::instance().now();
-  b.drives_[1]->with_node([](hil::DriveNode& n) { return (n.set_silent(true), 0); });  // drive 2 vanishes
-  const double t = b.until([&] {
-    return zero_sent.load() != 0 && b.drives_[0]->with_node([](hil::DriveNode& n) { return n.target_velocity(); }) == 0;
-  }, 1.0);
-  listening = false;
-  listen.join();
-  // Leave the bus: an open port nobody reads fills the hub's socket buffer (unix datagrams
-  // are charged to the sender until read) and would stall every other port.
-  listener.reset();
-  ASSERT_GT(t, 0) << b.events();
-  EXPECT_EQ(b.master([](canopen::DriveMaster& m) { return m.commanded(0); }), 0);
-  const Nanos lost_at = b.master([](canopen::DriveMaster& m) {
-    Nanos at = 0;
-    for (std::size_t i = 0; i < m.event_count(); ++i) {
-      if (m.event(i).node == 2 && m.event(i).to == NodePhase::kLost) at = m.event(i).time;
-    }
-    return at;
-  });
-  ASSERT_NE(lost_at, 0) << b.events();
-  const double lost_ms = nanos_to_seconds(lost_at - last_heartbeat.load()) * 1000;
-  const double zero_ms = nanos_to_seconds(zero_sent.load() - last_heartbeat.load()) * 1000;
-  const double timeout_ms = nanos_to_seconds(mc.heartbeat_timeout) * 1000, cycle_ms = nanos_to_seconds(mc.sync_period) * 1000,
-               slice_ms = nanos_to_seconds(mc.io_slice) * 1000;
-  std::printf("after drive 2's last heartbeat: lost at %.1f ms, zero RPDO to drive 1 on the bus at %.1f ms\n", lost_ms,
-              zero_ms);
-  // -1 ms: the master and the listener receive the same heartbeat in different threads.
-  EXPECT_GE(lost_ms, timeout_ms - 1) << "declared lost before the consumer timeout";
-  EXPECT_LT(lost_ms, (timeout_ms + slice_ms + 5) * testing::timing_slack()) << b.events();
-  EXPECT_LT(zero_ms, (timeout_ms + cycle_ms + 5) * testing::timing_slack()) << b.events();
-  // It comes back: reset, reconfigured, enabled again.
-  b.drives_[1]->with_node([](hil::DriveNode& n) { return (n.set_silent(false), 0); });
-  const double back = b.until([&] { return b.enabled(); }, 5.0);
-  EXPECT_GT(back, 0) << b.events();
-  EXPECT_NE(b.events().find("heartbeat timeout: commanding zero"), std::string::npos);
-}
-
-TEST(CanopenDrives, OverCurrentFaultIsResetAndTheDriveReEnabled) {
-  Bench b;
-  ASSERT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
-  b.drives_[0]->with_node([](hil::DriveNode& n) { return (n.over_current(MonotonicClock::instance().now()), 0); });
-  ASSERT_GT(b.until([&] { return !b.enabled(); }, 0.5), 0);
-  EXPECT_EQ(b.master([](canopen::DriveMaster& m) { return m.commanded(1); }), 0);  // the other drive is stopped too
-  const double t = b.until([&] { return b.enabled(); }, 3.0);
-  ASSERT_GT(t, 0) << b.events();
-  std::printf("over-current fault -> enabled again after %.3f s\n", t);
-  EXPECT_EQ(b.master([](canopen::DriveMaster& m) { return m.last_emcy(0); }), 0x0000);  // the reset EMCY
-  EXPECT_NE(b.events().find("EMCY 0x2310: output current (over-current)"), std::string::npos) << b.events();
-}
-
 TEST(CanopenDrives, BusOffIsRecoveredAndTheDrivesStopMeanwhile) {
   Bench b;
   ASSERT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
@@ -208,21 +125,6 @@ TEST(CanopenDrives, BusOffIsRecoveredAndTheDrivesStopMeanwhile) {
   std::printf("bus-off held 500 ms: drives stopped after %.0f ms; enabled again %.3f s later\n", stopped * 1000, t);
   EXPECT_GT(stopped + t, 0.5);  // not before the fault cleared
   EXPECT_GE(b.port_->stats().bus_off, 1u);
-}
-
-TEST(CanopenDrives, DisableAllReachesTheDrivesWithinOneControlPeriod) {
-  Bench b;
-  ASSERT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
-  const Nanos t0 = MonotonicClock::instance().now();
-  b.master([](canopen::DriveMaster& m) { return (m.disable_all("e-stop pressed"), 0); });
-  const double t = b.until([&] {
-    return b.drives_[0]->with_node([](hil::DriveNode& n) { return n.state(); }) != cia402::State::kOperationEnabled &&
-           b.drives_[1]->with_node([](hil::DriveNode& n) { return n.state(); }) != cia402::State::kOperationEnabled;
-  }, 1.0);
-  ASSERT_GT(t, 0);
-  std::printf("disable_all -> both drives out of operation enabled: %.2f ms (control period 10 ms)\n",
-              nanos_to_seconds(MonotonicClock::instance().now() - t0) * 1000);
-  EXPECT_LT(t, 0.010 * testing::timing_slack());
 }
 
 }  // namespace

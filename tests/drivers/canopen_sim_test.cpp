@@ -1,0 +1,232 @@
+// The CANopen master's logic on simulated time: the production DriveMaster against two
+// emulated CiA 402 drives on a simulated bus (hil/cia402/sim_drive_bus). No threads, no
+// sleeps: every bound is asserted to the bus analyser's timestamps, without scheduling
+// slack. The same master over the user-space CAN hub, in real time, is canopen_drive_test
+// (the transport); this file is the logic.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+
+#include "drivers/canopen/canopen_codec.hpp"
+#include "drivers/canopen/drive_master.hpp"
+#include "hil/cia402/sim_drive_bus.hpp"
+
+namespace cairn {
+namespace {
+
+using canopen::NodePhase;
+
+struct SimBench {
+  explicit SimBench(bool halt_quirk = false)
+      : bus(&clock, drives(halt_quirk)), master(&bus, &clock, mc) {}
+
+  static std::vector<hil::DriveConfig> drives(bool halt_quirk) {
+    std::vector<hil::DriveConfig> d(2);
+    d[0].node = 1;
+    d[1].node = 2;
+    d[1].reject_halt = halt_quirk;
+    return d;
+  }
+  /// Steps the master until pred() holds; simulated seconds it took, or -1 after timeout_s.
+  template <typename P>
+  double until(P pred, double timeout_s) {
+    const Nanos t0 = clock.now(), end = t0 + seconds_to_nanos(timeout_s);
+    while (clock.now() < end) {
+      if (pred()) return nanos_to_seconds(clock.now() - t0);
+      master.step();
+    }
+    return pred() ? nanos_to_seconds(clock.now() - t0) : -1;
+  }
+  void run_for(double seconds) {
+    const Nanos end = clock.now() + seconds_to_nanos(seconds);
+    while (clock.now() < end) master.step();
+  }
+  bool enabled() const { return master.all_enabled(); }
+  std::string events() const {
+    std::string s;
+    for (std::size_t i = 0; i < master.event_count(); ++i) {
+      const auto& e = master.event(i);
+      s += std::to_string(nanos_to_seconds(e.time)) + " s: node " + std::to_string(e.node) + " -> " +
+           canopen::phase_name(e.to) + ": " + e.reason.data() + "\n";
+    }
+    return s;
+  }
+  Nanos event_time(std::uint8_t node, NodePhase to) const {
+    Nanos at = -1;
+    for (std::size_t i = 0; i < master.event_count(); ++i) {
+      if (master.event(i).node == node && master.event(i).to == to) at = master.event(i).time;
+    }
+    return at;
+  }
+  /// The last frame on the bus with this COB-ID at or before `t` (-1: none).
+  Nanos last_frame(std::uint32_t id, Nanos t) const {
+    Nanos at = -1;
+    for (const auto& e : bus.log()) {
+      if (e.time <= t && e.frame.id == id) at = e.time;
+    }
+    return at;
+  }
+  /// The first frame on the bus after `t` matching pred (-1: none).
+  template <typename P>
+  Nanos first_frame_after(Nanos t, P pred) const {
+    for (const auto& e : bus.log()) {
+      if (e.time >= t && pred(e)) return e.time;
+    }
+    return -1;
+  }
+
+  SimClock clock{kNanosPerSecond};
+  const canopen::MasterConfig mc{};  // the shipped defaults
+  hil::SimDriveBus bus;
+  canopen::DriveMaster master;
+};
+
+bool zero_rpdo_to(const hil::BusLogEntry& e, std::uint8_t node) {
+  const can::Frame& f = e.frame;
+  return e.from_master && f.id == 0x200u + node && f.len >= 6 && f.data[2] == 0 && f.data[3] == 0 && f.data[4] == 0 &&
+         f.data[5] == 0;
+}
+
+TEST(CanopenSim, BootUpToOperationEnabledAndFeedbackAtTheSyncRate) {
+  SimBench b(/*halt_quirk=*/true);  // drive 2 faults on HALT: the master must never send it
+  const double t = b.until([&] { return b.enabled(); }, 5.0);
+  ASSERT_GT(t, 0) << b.events();
+  // The drives boot in 0.1 s; configuration is a few SDO round trips per drive.
+  EXPECT_LT(t, 0.5) << b.events();
+  std::printf("boot-up to operation enabled (both drives, simulated): %.3f s\n", t);
+  const std::int32_t cmd[] = {50000, -30000};
+  b.master.command(cmd);
+  const auto updates0 = b.master.feedback(0).updates;
+  b.run_for(1.0);
+  // One TPDO per SYNC (10 ms): exactly 100 in a simulated second, +-1 for the phase.
+  EXPECT_NEAR(static_cast<double>(b.master.feedback(0).updates - updates0), 100.0, 1.0);
+  EXPECT_NEAR(b.bus.drive(0).velocity(), 50000, 1);
+  EXPECT_NEAR(b.bus.drive(1).velocity(), -30000, 1);
+  EXPECT_NEAR(b.master.feedback(0).velocity, 50000, 1);
+  EXPECT_GT(b.master.feedback(0).position, 45000);  // ~1 s at 50000/s after the ramp
+  EXPECT_EQ(b.master.drive_state(1), cia402::State::kOperationEnabled);
+  EXPECT_EQ(b.bus.drive(1).state(), cia402::State::kOperationEnabled) << "drive 2 faulted: the master sent HALT";
+}
+
+// Heartbeat consumer (shipped defaults: producer 50 ms, consumer 110 ms): drive 2 falls
+// silent; "lost" is declared in [110, 110 + io_slice] ms after its last heartbeat on the
+// bus, and the zero RPDO reaches drive 1 by 110 ms + one SYNC cycle. Exact on simulated time.
+TEST(CanopenSim, HeartbeatLossZeroesEveryDriveWithinTimeoutPlusOneCycle) {
+  SimBench b;
+  ASSERT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
+  const std::int32_t cmd[] = {40000, 40000};
+  b.master.command(cmd);
+  b.run_for(0.237);  // an arbitrary phase against the heartbeat period
+  const Nanos silent_at = b.clock.now();
+  b.bus.drive(1).set_silent(true);
+  ASSERT_GT(b.until([&] { return b.event_time(2, NodePhase::kLost) > 0 && b.bus.drive(0).target_velocity() == 0; }, 1.0), 0)
+      << b.events();
+  const Nanos last_hb = b.last_frame(0x702, silent_at);
+  ASSERT_GT(last_hb, 0);
+  const Nanos lost = b.event_time(2, NodePhase::kLost);
+  const Nanos zero = b.first_frame_after(silent_at, [](const hil::BusLogEntry& e) { return zero_rpdo_to(e, 1); });
+  ASSERT_GT(zero, 0);
+  const double lost_ms = nanos_to_seconds(lost - last_hb) * 1e3, zero_ms = nanos_to_seconds(zero - last_hb) * 1e3;
+  std::printf("after drive 2's last heartbeat: lost at %.2f ms, zero RPDO to drive 1 at %.2f ms\n", lost_ms, zero_ms);
+  const double timeout_ms = nanos_to_seconds(b.mc.heartbeat_timeout) * 1e3;
+  EXPECT_GE(lost_ms, timeout_ms) << "declared lost before the consumer timeout";
+  EXPECT_LE(lost_ms, timeout_ms + nanos_to_seconds(b.mc.io_slice) * 1e3) << b.events();
+  EXPECT_LE(zero_ms, timeout_ms + nanos_to_seconds(b.mc.sync_period) * 1e3) << b.events();
+  EXPECT_EQ(b.master.commanded(0), 0);
+  // It comes back: reset, reconfigured, enabled again.
+  b.bus.drive(1).set_silent(false);
+  EXPECT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
+}
+
+TEST(CanopenSim, OverCurrentFaultIsResetAndTheDriveReEnabled) {
+  SimBench b;
+  ASSERT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
+  const std::int32_t cmd[] = {20000, 20000};
+  b.master.command(cmd);
+  b.run_for(0.1);
+  b.bus.drive(0).over_current(b.clock.now());
+  // The EMCY arrives with the fault; the other drive's zero goes out with the next SYNC cycle.
+  const double off = b.until([&] { return !b.enabled() && b.master.commanded(1) == 0; }, 0.5);
+  ASSERT_GE(off, 0) << b.events();
+  EXPECT_LE(off, nanos_to_seconds(b.mc.sync_period)) << b.events();
+  const double t = b.until([&] { return b.enabled(); }, 3.0);
+  ASSERT_GT(t, 0) << b.events();
+  std::printf("over-current fault -> enabled again after %.3f s (simulated)\n", t);
+  EXPECT_EQ(b.master.last_emcy(0), 0x0000);  // the reset EMCY
+  EXPECT_NE(b.events().find("EMCY 0x2310: output current (over-current)"), std::string::npos) << b.events();
+}
+
+TEST(CanopenSim, BusOffStopsTheDrivesAndIsRecoveredOnlyAfterTheFaultClears) {
+  SimBench b;
+  ASSERT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
+  const std::int32_t cmd[] = {30000, 30000};
+  b.master.command(cmd);
+  ASSERT_GT(b.until([&] { return b.bus.drive(0).velocity() > 29000; }, 1.0), 0);
+  const Nanos fault = b.clock.now();
+  b.bus.inject_bus_off(500 * kNanosPerMilli);
+  // Nothing reaches the drives: each declares SYNC loss 0.1 s (sync_loss_s) after the last
+  // SYNC it heard (at most one cycle before the fault) and ramps down at its profile
+  // deceleration (0x6084: 400000/s, so 75 ms from 30000/s).
+  const double tick = 1e-4;
+  const double lost = b.until([&] { return b.bus.drive(0).sync_lost() && b.bus.drive(1).sync_lost(); }, 1.0);
+  ASSERT_GE(lost, 0) << b.events();
+  EXPECT_LE(lost, 0.1 + 0.010 + tick);
+  const double stopped = lost + b.until([&] { return b.bus.drive(0).velocity() == 0.0 && b.bus.drive(1).velocity() == 0.0; }, 1.0);
+  EXPECT_LE(stopped, 0.1 + 0.010 + 30000.0 / 400000.0 + 2 * tick);
+  EXPECT_FALSE(b.enabled());
+  EXPECT_EQ(b.first_frame_after(fault + 1, [](const hil::BusLogEntry& e) { return e.from_master; }),
+            b.first_frame_after(fault + 500 * kNanosPerMilli, [](const hil::BusLogEntry& e) { return e.from_master; }))
+      << "the master sent while its controller was bus-off";
+  const double t = b.until([&] { return b.enabled(); }, 5.0);
+  ASSERT_GT(t, 0) << b.events();
+  std::printf("bus-off held 500 ms: drives stopped after %.0f ms; enabled again %.3f s later (simulated)\n", stopped * 1000, t);
+  EXPECT_GE(nanos_to_seconds(b.clock.now() - fault), 0.5);  // not before the fault cleared
+  EXPECT_GE(b.bus.stats().bus_off, 1u);
+  EXPECT_GE(b.bus.stats().restarts, 1u);
+}
+
+TEST(CanopenSim, DisableAllReachesBothDrivesAtOnce) {
+  SimBench b;
+  ASSERT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
+  b.master.disable_all("e-stop pressed");
+  // disable_all sends the controlwords itself: no simulated time passes before both
+  // drives leave operation enabled.
+  EXPECT_NE(b.bus.drive(0).state(), cia402::State::kOperationEnabled);
+  EXPECT_NE(b.bus.drive(1).state(), cia402::State::kOperationEnabled);
+  EXPECT_EQ(b.master.commanded(0), 0);
+  EXPECT_EQ(b.master.commanded(1), 0);
+}
+
+TEST(CanopenSim, GarbageFramesAreSurvived) {
+  SimBench b;
+  ASSERT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
+  for (std::size_t i = 0; i < b.bus.drives(); ++i) b.bus.drive(i).inject_garbage(300, 7 + i);
+  b.run_for(0.3);
+  EXPECT_TRUE(b.enabled()) << b.events();
+  EXPECT_EQ(cia402::decode(b.master.feedback(0).statusword), cia402::State::kOperationEnabled);
+}
+
+TEST(CanopenSim, TheSameRunGivesTheSameBusTraffic) {
+  auto run = [] {
+    SimBench b;
+    b.until([&] { return b.enabled(); }, 5.0);
+    const std::int32_t cmd[] = {10000, -10000};
+    b.master.command(cmd);
+    b.run_for(0.5);
+    b.bus.drive(0).over_current(b.clock.now());
+    b.run_for(1.0);
+    std::string s;
+    for (const auto& e : b.bus.log()) {
+      s += std::to_string(e.time) + ":" + std::to_string(e.frame.id) + ":" +
+           std::string(reinterpret_cast<const char*>(e.frame.data.data()), e.frame.len) + ";";
+    }
+    return s;
+  };
+  const std::string a = run(), c = run();
+  EXPECT_GT(a.size(), 1000u);
+  EXPECT_EQ(a, c);
+}
+
+}  // namespace
+}  // namespace cairn
