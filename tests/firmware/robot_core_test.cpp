@@ -1,0 +1,115 @@
+// RobotCore, the robot pipeline without threads, devices or a clock, driven call by call
+// on simulated time: what it emits per scan (sequence, boot epoch, the link from features
+// to their odometry, every Nth LaserScan) and where it cuts the wheel odometry (at the
+// scan's mid-sweep, splitting the wheel sample that spans it).
+#include "firmware/executive/robot_core.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+namespace cairn {
+namespace {
+
+struct Recorder : firmware::RobotOutputs {
+  std::vector<msg::OdometryIncrement> increments;
+  std::vector<msg::LaserScan> lasers;
+  std::vector<msg::FeatureObservations> observations;
+  void odometry(const msg::OdometryIncrement& m) override { increments.push_back(m); }
+  void laser(const msg::LaserScan& m) override { lasers.push_back(m); }
+  void features(const msg::FeatureObservations& m) override { observations.push_back(m); }
+};
+
+constexpr Nanos kMs = kNanosPerMilli;
+
+// A 180°, 0.5° scan taken at `stamp`: no echo except, if `pole`, a reflective patch of five
+// beams 3 m straight ahead.
+lms::LmsScan scan_at(Nanos stamp, bool pole) {
+  lms::LmsScan s;
+  s.stamp = stamp;
+  s.count = 361;
+  s.angle_min = -M_PI / 2;
+  s.angle_increment = 0.5 * M_PI / 180;
+  s.beam_period_s = 0.5 / 360.0 / 75.0;
+  if (pole) {
+    for (int i = 178; i <= 182; ++i) {
+      s.range_mm[static_cast<std::size_t>(i)] = 3000;
+      s.flags[static_cast<std::size_t>(i)] = 1;
+    }
+  }
+  return s;
+}
+
+// Straight ahead at `v` m/s: the wheel positions at time t (right motor mirrored).
+firmware::WheelReading wheels_at(const canopen::DiffDriveGeometry& g, double v, Nanos t) {
+  const double counts = v * nanos_to_seconds(t) / g.wheel_radius_m * g.counts_per_wheel_rad();
+  firmware::WheelReading w;
+  w.left = static_cast<std::int32_t>(std::lround(counts));
+  w.right = static_cast<std::int32_t>(std::lround(g.right_inverted ? -counts : counts));
+  w.enabled = true;
+  w.stamp = t;
+  return w;
+}
+
+TEST(RobotCore, MessagesCarryTheBootEpochSequenceAndOdometryLink) {
+  firmware::ExecutiveConfig cfg;
+  cfg.robot_id = 7;
+  cfg.boot_epoch = 0xCAFEu;
+  cfg.scan_publish_every = 4;
+  firmware::RobotCore core(cfg);
+  Recorder out;
+  for (int k = 0; k < 10; ++k) {
+    const Nanos t = (k + 1) * 27 * kMs;
+    core.on_wheels(wheels_at(cfg.geometry, 0.0, t));
+    core.on_scan(scan_at(t - 10 * kMs, /*pole=*/true), t, out);
+  }
+  ASSERT_EQ(out.increments.size(), 10u);
+  for (std::size_t i = 0; i < out.increments.size(); ++i) {
+    EXPECT_EQ(out.increments[i].robot_id, 7);
+    EXPECT_EQ(out.increments[i].boot_epoch, 0xCAFEu);
+    EXPECT_EQ(out.increments[i].seq, i + 1);
+    EXPECT_EQ(out.increments[i].t1, static_cast<Nanos>(i + 1) * 27 * kMs - 10 * kMs);
+    if (i > 0) {
+      EXPECT_EQ(out.increments[i].t0, out.increments[i - 1].t1) << "increments must tile time";
+    }
+  }
+  // Every 4th scan: scans 4 and 8.
+  ASSERT_EQ(out.lasers.size(), 2u);
+  EXPECT_EQ(out.lasers[0].seq, 1u);
+  EXPECT_EQ(out.lasers[1].stamp, out.increments[7].t1);
+  ASSERT_EQ(out.observations.size(), 10u) << "the pole straight ahead, seen in every scan";
+  for (std::size_t i = 0; i < out.observations.size(); ++i) {
+    EXPECT_EQ(out.observations[i].boot_epoch, 0xCAFEu);
+    EXPECT_EQ(out.observations[i].odom_seq, out.increments[i].seq) << "features belong to their scan's increment";
+    ASSERT_EQ(out.observations[i].n_features, 1);
+    EXPECT_NEAR(out.observations[i].features[0].bearing, 0.0, 0.01);
+    EXPECT_NEAR(out.observations[i].features[0].range, 3.0 + 0.05 + cfg.laser_mount.x, 0.1);  // to the pole's centre
+  }
+}
+
+// Wheel samples every 10 ms at 1 m/s; a scan stamped at 50 ms sweeps 361 beams of
+// 18.5 us, so its mid-sweep is 53.34 ms: its increment is the motion up to there, the
+// 10 ms wheel sample that spans it split in proportion, and the rest waits for the next scan.
+TEST(RobotCore, OdometryIsCutAtTheScansMidSweep) {
+  firmware::ExecutiveConfig cfg;
+  firmware::RobotCore core(cfg);
+  Recorder out;
+  const double v = 1.0;
+  const Nanos half_sweep = static_cast<Nanos>(0.5 * (0.5 / 360.0 / 75.0) * 361 * 1e9);
+  for (Nanos t = 0; t <= 60 * kMs; t += 10 * kMs) core.on_wheels(wheels_at(cfg.geometry, v, t));
+  core.on_scan(scan_at(50 * kMs, false), 60 * kMs, out);
+  for (Nanos t = 70 * kMs; t <= 90 * kMs; t += 10 * kMs) core.on_wheels(wheels_at(cfg.geometry, v, t));
+  core.on_scan(scan_at(80 * kMs, false), 90 * kMs, out);
+  ASSERT_EQ(out.increments.size(), 2u);
+  const double count_m = cfg.geometry.wheel_radius_m / cfg.geometry.counts_per_wheel_rad();  // one count, in metres
+  EXPECT_NEAR(out.increments[0].delta.x, v * nanos_to_seconds(50 * kMs + half_sweep), count_m);
+  EXPECT_NEAR(out.increments[1].delta.x, v * 0.030, count_m);
+  EXPECT_NEAR(out.increments[1].local_pose.x, v * nanos_to_seconds(80 * kMs + half_sweep), count_m);
+  EXPECT_NEAR(core.local_pose().x, v * 0.090, count_m) << "the motion after the mid-sweep is kept, not lost";
+  EXPECT_NEAR(out.increments[0].delta.y, 0.0, 1e-12);
+  EXPECT_NEAR(out.increments[0].delta.theta, 0.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace cairn
