@@ -150,7 +150,7 @@ TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
   g_counted_threads = 0;
   Pose2 end_local, end_truth;
   double odometer = 0;
-  bool rt_granted = false;
+  [[maybe_unused]] bool rt_granted = false;  // read only in unsanitized builds
   firmware::RtSnapshot snap;
   {
     hil::RobotBenchConfig bc;
