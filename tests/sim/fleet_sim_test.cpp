@@ -66,3 +66,41 @@ TEST(FleetSim, OfficeRobotsAreLocalisedAndPolesMapped) {
 
 }  // namespace
 }  // namespace cairn
+
+namespace cairn {
+namespace {
+
+// The smallest distance between two robots' true positions over the run's samples.
+double closest_approach(const sim::FleetSim& f) {
+  double best = 1e9;
+  const auto& s = f.samples();
+  for (std::size_t a = 0; a < s.size(); ++a) {
+    for (std::size_t b = a + 1; b < s.size() && s[b].t == s[a].t; ++b) {
+      best = std::min(best, std::hypot(s[a].truth.x - s[b].truth.x, s[a].truth.y - s[b].truth.y));
+    }
+  }
+  return best;
+}
+
+// In one shared world robots collide and stop; they never pass through each other. In
+// separate worlds (the default) the office tours cross, so the check can fail.
+TEST(FleetSim, InASharedWorldRobotsCollideInsteadOfPassingThrough) {
+  sim::FleetSimConfig separate = office(7, 1, 30);
+  sim::FleetSim apart(separate);
+  apart.run();
+  sim::FleetSimConfig shared = separate;
+  shared.shared_world = true;
+  sim::FleetSim together(shared);
+  together.run();
+  const double body = 2 * 0.3;  // two bodies of SimRobotConfig's default radius
+  std::uint64_t bumps = 0;
+  for (const auto& r : together.summary(1.0).robots) bumps += r.bumps;
+  std::printf("closest approach: separate worlds %.3f m, shared world %.3f m (bodies touch at %.2f m); %llu blocked steps\n",
+              closest_approach(apart), closest_approach(together), body, static_cast<unsigned long long>(bumps));
+  EXPECT_LT(closest_approach(apart), body) << "the tours no longer cross: this test shows nothing";
+  EXPECT_GE(closest_approach(together), body - 0.01);
+  EXPECT_GT(bumps, 0u);
+}
+
+}  // namespace
+}  // namespace cairn

@@ -94,6 +94,17 @@ void FleetSim::deliver(Nanos now) {
   }
 }
 
+// One world for all: each robot's copy of the world gets every other robot's body where
+// it stands now (its laser sees them, its body collides with them). Done between steps,
+// in robot order, so the result does not depend on the worker threads.
+void FleetSim::share_world() {
+  for (std::size_t i = 0; i < robots_.size(); ++i) {
+    for (std::size_t j = 0; j < robots_.size(); ++j) {
+      if (i != j) worlds_[i]->set_robot(robots_[j]->id(), robots_[j]->truth().translation(), robots_[j]->body_radius());
+    }
+  }
+}
+
 void FleetSim::step_robots() {
   for (std::size_t i; (i = next_robot_.fetch_add(1, std::memory_order_relaxed)) < robots_.size();) {
     if (steps_ > 0) robots_[i]->physics(now_ - cfg_.physics_step, cfg_.physics_step);
@@ -111,6 +122,7 @@ void FleetSim::run(const std::function<void(double)>& progress) {
   // and samples; the barrier's completion advances the clock.
   bool done = false;
   auto between_steps = [&]() noexcept {
+    if (cfg_.shared_world) share_world();
     deliver(now_);
     if (now_ >= next_sample) {
       next_sample += cfg_.sample_period;

@@ -31,6 +31,7 @@ struct FleetSimConfig {
   Nanos physics_step = 5 * kNanosPerMilli;
   Nanos link_latency = 5 * kNanosPerMilli;  // robot -> base, each message
   double link_loss = 0.0;                   // fraction of messages lost
+  bool shared_world = false;                // robots see and collide with each other
   Nanos sample_period = 100 * kNanosPerMilli;  // ground truth and estimates written at this rate
   firmware::ExecutiveConfig robot;             // every robot's configuration (id set per robot)
   firmware::FollowerConfig follower;
@@ -76,6 +77,7 @@ class FleetSim {
  private:
   struct Outbox;
   void deliver(Nanos now);
+  void share_world();
   void step_robots();
 
   FleetSimConfig cfg_;

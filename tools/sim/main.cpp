@@ -123,6 +123,9 @@ int main(int argc, char** argv) {
   app.add_option("--robot-config", robot_config, "the robots' configuration (TOML, as cairn-robot's; default: built-in)");
   app.add_option("--latency-ms", latency_ms, "robot -> base link latency")->capture_default_str()->check(CLI::Range(0.0, 10000.0));
   app.add_option("--loss", cfg.link_loss, "fraction of robot -> base messages lost")->capture_default_str()->check(CLI::Range(0.0, 0.9));
+  app.add_flag("--shared-world", cfg.shared_world,
+               "one world for all robots: each sees the others' bodies (reflective markers) and collides with them "
+               "(the scripted tours are not coordinated: crossing robots stop against each other, counted as bumps)");
   app.add_option("--threads", cfg.threads, "worker threads stepping the robots (the output does not depend on it)")
       ->capture_default_str()->check(CLI::Range(1, 64));
   app.add_flag("--json", json, "print the summary as JSON (with wall time and speed factor)");

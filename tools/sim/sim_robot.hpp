@@ -50,6 +50,7 @@ class SimRobot {
   std::uint64_t scans() const { return scans_; }
   firmware::RobotCore& core() { return core_; }
   int id() const { return cfg_.id; }
+  double body_radius() const { return cfg_.body_radius_m; }
 
  private:
   struct PendingScan {
