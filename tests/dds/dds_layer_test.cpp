@@ -119,9 +119,9 @@ void round_trip(const char* name, std::size_t padding, Fix&& fix) {
 static_assert(sizeof(cairn_RobotStatus) == 864 && sizeof(cairn_OdometryIncrement) == 144 && sizeof(cairn_LaserScan) == 2320 &&
               sizeof(cairn_FeatureObservations) == 1840 && sizeof(cairn_PoseCorrection) == 136 &&
               sizeof(cairn_TaskAssignment) == 1080 && sizeof(cairn_MapTile) == 4128 && sizeof(cairn_Bid) == 3088 &&
-              sizeof(cairn_FeatureMap) == 7192);
+              sizeof(cairn_FeatureMap) == 7192 && sizeof(cairn_SafetyReset) == 48);
 
-TEST(DdsLayer, RoundTripEveryTopicType) {  // all nine @topic types of common/idl/cairn.idl
+TEST(DdsLayer, RoundTripEveryTopicType) {  // all ten @topic types of common/idl/cairn.idl
   // robot_id (2) + stop_text (3) + n_devices (3) + 6 x DeviceStatus after `state` (3)
   round_trip<cairn_RobotStatus>("RobotStatus", 2 + 3 + 3 + 6 * 3, [](cairn_RobotStatus& s) {
     set_text(s.name, 'n');
@@ -139,6 +139,7 @@ TEST(DdsLayer, RoundTripEveryTopicType) {  // all nine @topic types of common/id
   });
   round_trip<cairn_PoseCorrection>("PoseCorrection", 2, [](cairn_PoseCorrection&) {});
   round_trip<cairn_TaskAssignment>("TaskAssignment", 2 + 4 + 4 + 6, [](cairn_TaskAssignment& s) { s.kind = cairn_TASK_GOTO; });
+  round_trip<cairn_SafetyReset>("SafetyReset", 2, [](cairn_SafetyReset& s) { set_text(s.issued_by, 'o'); });
   round_trip<cairn_MapTile>("MapTile", 2, [](cairn_MapTile&) {});
   round_trip<cairn_Bid>("Bid", 2 + 2, [](cairn_Bid&) {});
   round_trip<cairn_FeatureMap>("FeatureMap", 2 + 6 + 128 * 4, [](cairn_FeatureMap&) {});  // Landmark: id then 4 to a double
