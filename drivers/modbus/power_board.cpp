@@ -138,6 +138,13 @@ void PowerBoard::note_failure() {
     next_reconnect_ = now + kReconnectBackoff;
     modbus_close(ctx_);
     if (modbus_connect(ctx_) == 0) ++counters_.reconnects;
+  } else if (uri_.rfind("tcp:", 0) == 0 && errno != EMBXILFUN && errno != EMBXILADD && errno != EMBXILVAL) {
+    // A timeout or a bad reply on TCP: the late reply may still be on its way and would be
+    // taken as the next request's (a transaction-id mismatch, and so on for every read
+    // after). A fresh connection resynchronises at once (connect bounded by the response
+    // timeout). An exception reply was a complete answer: nothing to resynchronise.
+    modbus_close(ctx_);
+    if (modbus_connect(ctx_) == 0) ++counters_.reconnects;
   } else {
     modbus_flush(ctx_);  // resynchronise RTU framing after a bad or late reply
   }

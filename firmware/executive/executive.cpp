@@ -189,7 +189,6 @@ void Executive::power_thread() {
   Nanos next_cycle = clock.now(), next_poll = 0, next_snapshot = 0;
   bool last_reset = false, poll_ok = false;
   int relay = -1;  // what the relay coil was last written to (-1: unknown / the write failed)
-  std::uint64_t input_failures = 0;
   while (running_.load(std::memory_order_relaxed)) {
     // 1. The fast path.
     modbus::SafetyInputBits in;
@@ -206,9 +205,7 @@ void Executive::power_thread() {
       last_power_.store(clock.now(), std::memory_order_release);
       if (in.reset && !last_reset) reset_requests_.fetch_add(1, std::memory_order_acq_rel);  // the button's rising edge
       last_reset = in.reset;
-    } else {
-      ++input_failures;  // the RT loop stops (and latches) when no read succeeds for power_timeout
-    }
+    }  // a failed read is counted by the link; no good read for power_timeout stops and latches (RT loop)
     // 2. At most one other transaction: the motor relay when it must change, else the poll.
     const Nanos now = clock.now();
     const bool want = motor_power_want_.load(std::memory_order_acquire) && !estop_.load(std::memory_order_acquire);
@@ -235,7 +232,6 @@ void Executive::power_thread() {
     if (next_cycle < after) next_cycle = after;  // a slow transaction: read again at once, no burst
     clock.sleep_until(next_cycle);
   }
-  (void)input_failures;
   if (hooks_.finished) hooks_.finished("power");
 }
 

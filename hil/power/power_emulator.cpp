@@ -120,6 +120,7 @@ void PowerEmulator::update_model() {
 
 int PowerEmulator::handle(std::uint8_t* query, int len, void* ctx) {
   if (silent_) return 0;
+  if (const Nanos d = reply_delay_.exchange(0); d > 0) ::usleep(static_cast<useconds_t>(d / kNanosPerMicro));
   std::lock_guard l(mutex_);
   update_model();
   const int rc = modbus_reply(static_cast<modbus_t*>(ctx), query, len, as_mapping(mapping_));

@@ -49,6 +49,8 @@ class PowerEmulator {
   /// A fault: the board stops answering (requests are read and dropped), as when its
   /// controller hangs or the cable is pulled.
   void set_silent(bool silent) { silent_ = silent; }
+  /// A fault: the next reply is sent this late (a board or gateway hiccup).
+  void delay_next_reply(Nanos delay) { reply_delay_ = delay; }
   bool motor_relay() const;
   double soc() const;
   std::uint64_t requests() const { return requests_.load(); }
@@ -72,6 +74,7 @@ class PowerEmulator {
   std::atomic<bool> running_{true};
   std::atomic<bool> estop_{false}, relay_{false}, silent_{false};
   std::atomic<bool> reset_{false};
+  std::atomic<Nanos> reply_delay_{0};
   std::atomic<std::uint64_t> requests_{0}, relay_writes_{0};
   std::atomic<Nanos> estop_changed_at_{0}, relay_off_at_{0}, relay_on_at_{0};
   Nanos last_update_ = 0;

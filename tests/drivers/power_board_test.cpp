@@ -112,6 +112,22 @@ TEST(PowerBoard, ErrorsAreClearAndCounted) {
   EXPECT_FALSE(modbus::decode_power(regs, false, {}, &s));
 }
 
+// A reply that comes after the response timeout: that read fails, and the next ones must
+// not take the late reply for theirs (on TCP the link is reconnected to resynchronise).
+TEST(PowerBoard, ALateReplyCostsOneReadNotAStreamOfThem) {
+  hil::PowerEmulator emu(hil::PowerEmulator::Link::kTcp, {}, {});
+  std::string err;
+  auto board = modbus::PowerBoard::open(emu.uri(), {}, 20 * kNanosPerMilli, &err);
+  ASSERT_TRUE(board) << err;
+  modbus::SafetyInputBits bits;
+  ASSERT_TRUE(board->read_safety_inputs(&bits));
+  emu.delay_next_reply(40 * kNanosPerMilli);
+  EXPECT_FALSE(board->read_safety_inputs(&bits));
+  usleep(40000);  // the late reply arrives
+  for (int i = 0; i < 5; ++i) EXPECT_TRUE(board->read_safety_inputs(&bits)) << "read " << i << " after the late reply";
+  EXPECT_EQ(board->counters().errors, 1u);
+}
+
 // A malformed port or baud rate is a clear error, not an exception out of std::stoi.
 TEST(PowerBoard, BadPortOrBaudIsAClearErrorNotAThrow) {
   for (const char* uri : {"tcp:127.0.0.1:notaport", "tcp:127.0.0.1:", "tcp:127.0.0.1:99999999999", "tcp:127.0.0.1:70000",
