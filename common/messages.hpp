@@ -116,6 +116,14 @@ struct TaskAssignment {
   std::array<double, 2 * kMaxPath> path_xy{};  // global frame, x0 y0 x1 y1 ...
 };
 
+/// An operator's explicit e-stop reset for one robot (the robot's e-stop latches).
+struct SafetyReset {
+  std::uint16_t robot_id = 0;
+  std::uint32_t seq = 0;
+  Nanos issued = 0;
+  std::array<char, 32> issued_by{};  // terminated
+};
+
 struct Landmark {
   std::uint32_t id = 0;
   double x = 0, y = 0;
@@ -124,6 +132,7 @@ struct Landmark {
 
 static_assert(std::is_trivially_copyable_v<OdometryIncrement> && std::is_trivially_copyable_v<LaserScan> &&
               std::is_trivially_copyable_v<FeatureObservations> && std::is_trivially_copyable_v<PoseCorrection> &&
-              std::is_trivially_copyable_v<TaskAssignment> && std::is_trivially_copyable_v<Landmark>);
+              std::is_trivially_copyable_v<TaskAssignment> && std::is_trivially_copyable_v<SafetyReset> &&
+              std::is_trivially_copyable_v<Landmark>);
 
 }  // namespace cairn::msg

@@ -2,6 +2,8 @@
 // loop and the local mapper (firmware/executive) and bridges them to DDS; without one it
 // is a status-only fleet member (no hardware).
 #include <CLI/CLI.hpp>
+#include <atomic>
+#include <csignal>
 #include <cstdio>
 #include <random>
 
@@ -17,6 +19,18 @@
 using namespace cairn;
 
 namespace {
+
+// The local e-stop reset: SIGUSR1 (`systemctl kill -s USR1 cairn-robot`, or
+// `kill -USR1 PID`) counts one reset request; the main loop hands each to the executive.
+std::atomic<std::uint32_t> g_local_resets{0};
+extern "C" void on_reset_signal(int) { g_local_resets.fetch_add(1); }
+
+void install_reset_handler() {
+  struct sigaction sa{};
+  sa.sa_handler = on_reset_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGUSR1, &sa, nullptr);
+}
 
 std::string describe(const firmware::RobotConfig& c) {
   std::string s = "robot " + std::to_string(c.id) + " (" + c.name + ")";
@@ -89,8 +103,15 @@ int run(const std::string& config_path, int id_override, const std::string& name
   const Nanos end = duration_s > 0 ? start + seconds_to_nanos(duration_s) : 0;
   const Nanos tick = exec ? cfg.bridge_period : 50 * kNanosPerMilli;
   Nanos next_status = start, next_progress = start + 10 * kNanosPerSecond, next = start;
+  std::uint32_t local_resets = g_local_resets.load();
   while (!shutdown_requested() && (end == 0 || clock.now() < end)) {
     const Nanos now = clock.now();
+    bridge.take_resets(exec.get());  // the base's SafetyReset
+    if (const std::uint32_t r = g_local_resets.load(); r != local_resets) {
+      local_resets = r;
+      CAIRN_LOG_INFO("robot", "e-stop reset requested locally (SIGUSR1)");
+      if (exec) exec->request_reset();
+    }
     if (exec) {
       bridge.forward(*exec);
       const bool heard = bridge.poll_inputs([&](const msg::TaskAssignment& t) {
@@ -141,7 +162,9 @@ int main(int argc, char** argv) {
   CLI::App app{"cairn-robot: the Cairn robot executive. Runs the laser, drive and power-board drivers, odometry,\n"
                "local scan matching, feature extraction and safety in a real-time loop, and publishes the\n"
                "robot's status, odometry, scans and features over DDS (docs/firmware.md). DDS runs on the\n"
-               "loopback-only profile unless the configuration's [dds] section says otherwise."};
+               "loopback-only profile unless the configuration's [dds] section says otherwise.\n"
+               "The e-stop latches: after release, reset with SIGUSR1 (kill -USR1 PID), the base's SafetyReset\n"
+               "topic or the power board's reset input."};
   std::string config_path;
   int id = 0;
   std::string name;
@@ -154,5 +177,6 @@ int main(int argc, char** argv) {
   app.add_flag("--check-config", check, "validate the configuration, print what it would run, and exit");
   CLI11_PARSE(app, argc, argv);
   install_shutdown_handlers();
+  install_reset_handler();
   return run_program("cairn-robot", [&] { return run(config_path, id, name, duration, check); });
 }

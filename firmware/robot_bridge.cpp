@@ -1,5 +1,7 @@
 #include "firmware/robot_bridge.hpp"
 
+#include <cstdio>
+
 #include "common/log.hpp"
 
 namespace cairn::firmware {
@@ -27,6 +29,7 @@ RobotBridge::RobotBridge(const dds::Participant& pp, const RobotConfig& cfg)
       feat_topic_(pp),
       corr_topic_(pp),
       task_topic_(pp),
+      reset_topic_(pp),
       status_writer_(pp, status_topic_, [&] {
         dds::QosSpec q = dds::state_qos();
         q.liveliness_lease = cfg.liveliness_lease;
@@ -36,7 +39,8 @@ RobotBridge::RobotBridge(const dds::Participant& pp, const RobotConfig& cfg)
       laser_writer_(pp, laser_topic_, dds::sensor_qos()),
       feat_writer_(pp, feat_topic_, dds::latched_qos(kFusionHistory)),
       corr_reader_(pp, corr_topic_, dds::latched_qos()),
-      task_reader_(pp, task_topic_, dds::latched_qos()) {
+      task_reader_(pp, task_topic_, dds::latched_qos()),
+      reset_reader_(pp, reset_topic_, dds::state_qos(4)) {  // volatile: never an old reset
   status_.robot_id = cfg.id;
   dds::set_text(status_.name, cfg.name);
   status_.mode = cairn_MODE_IDLE;
@@ -84,7 +88,13 @@ void RobotBridge::publish_status(Executive* exec, Nanos now) {
     ever_ready_ = ever_ready_ || r.stop == StopReason::kNone;
     s.mode = mode_of(r.stop, ever_ready_);
     s.stop_reason = static_cast<std::uint8_t>(r.stop);
-    dds::set_text(s.stop_text, stop_reason_text(r.stop));
+    if (r.stop == StopReason::kResetRequired) {  // the operator needs the cause before resetting
+      char text[96];
+      std::snprintf(text, sizeof text, "e-stop latched (%s): reset required", latch_cause_text(r.latch_cause));
+      dds::set_text(s.stop_text, text);
+    } else {
+      dds::set_text(s.stop_text, stop_reason_text(r.stop));
+    }
     s.local_pose = {r.local_pose.x, r.local_pose.y, r.local_pose.theta};
     s.loop_period_mean_us = r.period_mean_us;
     s.loop_period_p99_us = r.period_p99_us;
@@ -111,6 +121,20 @@ void RobotBridge::publish_status(Executive* exec, Nanos now) {
     }
   }
   write(status_writer_, s, &counters_.statuses);
+}
+
+std::size_t RobotBridge::take_resets(Executive* exec) {
+  std::size_t n = 0;
+  reset_reader_.take([&](const cairn_SafetyReset& r, const dds_sample_info_t&) {
+    msg::SafetyReset m;
+    dds::from_dds(r, &m);
+    if (m.robot_id != cfg_.id) return;
+    ++n;
+    ++counters_.resets;
+    CAIRN_LOG_INFO("bridge", "e-stop reset #{} requested over DDS by '{}'", m.seq, std::string_view(m.issued_by.data()));
+    if (exec) exec->request_reset();
+  });
+  return n;
 }
 
 void RobotBridge::dispose() { status_writer_.dispose(status_); }

@@ -2,7 +2,8 @@
 // and drains the executive's queues onto the
 // OdometryIncrement, LaserScan and FeatureObservations topics, publishes RobotStatus
 // (loop statistics, stop reason, devices), and takes this robot's PoseCorrection and
-// TaskAssignment, which keep the base-station link alive. With no executive (a robot
+// TaskAssignment, which keep the base-station link alive, and this robot's SafetyReset
+// (an operator's e-stop reset, handed to Executive::request_reset()). With no executive (a robot
 // configured without [devices]) it publishes status only.
 #pragma once
 
@@ -19,6 +20,7 @@ namespace cairn::firmware {
 struct BridgeCounters {
   std::uint64_t odometry = 0, lasers = 0, features = 0, statuses = 0, corrections = 0, tasks = 0, write_failures = 0;
   std::uint64_t invalid_inputs = 0;  // samples from the base that had to be clamped
+  std::uint64_t resets = 0;          // SafetyReset samples for this robot
 };
 
 class RobotBridge {
@@ -32,6 +34,9 @@ class RobotBridge {
   /// arrived (the link is alive). `on_task` is called for each task.
   template <typename OnTask>
   bool poll_inputs(OnTask&& on_task);
+  /// Takes this robot's SafetyReset samples; each becomes one exec->request_reset()
+  /// (exec may be null: taken and dropped). Returns how many arrived.
+  std::size_t take_resets(Executive* exec);
   /// The latest local->global transform from the base station, if any.
   const std::optional<Pose2>& local_to_global() const { return local_to_global_; }
   /// Tells the base the robot left on purpose (it shows "left", not "lost").
@@ -50,12 +55,14 @@ class RobotBridge {
   dds::Topic<cairn_FeatureObservations> feat_topic_;
   dds::Topic<cairn_PoseCorrection> corr_topic_;
   dds::Topic<cairn_TaskAssignment> task_topic_;
+  dds::Topic<cairn_SafetyReset> reset_topic_;
   dds::Writer<cairn_RobotStatus> status_writer_;
   dds::Writer<cairn_OdometryIncrement> odom_writer_;
   dds::Writer<cairn_LaserScan> laser_writer_;
   dds::Writer<cairn_FeatureObservations> feat_writer_;
   dds::Reader<cairn_PoseCorrection> corr_reader_;
   dds::Reader<cairn_TaskAssignment> task_reader_;
+  dds::Reader<cairn_SafetyReset> reset_reader_;
   cairn_RobotStatus status_{};
   // Conversion buffers, reserved once (a LaserScan is ~3 KB).
   std::unique_ptr<msg::LaserScan> laser_ = std::make_unique<msg::LaserScan>();

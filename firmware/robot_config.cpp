@@ -73,7 +73,9 @@ void read_safety(const ConfigSection& s, SafetyLimits* l) {
   l->link_timeout = seconds_key(s, "link_timeout_s", l->link_timeout, {0.0, 600.0});
   l->laser_timeout = seconds_key(s, "laser_timeout_s", l->laser_timeout, {0.05, 60.0});
   l->command_timeout = seconds_key(s, "command_timeout_s", l->command_timeout, {0.05, 60.0});
-  l->power_timeout = seconds_key(s, "power_timeout_s", l->power_timeout, {0.05, 60.0});
+  // The e-stop input and the wheel feedback: a stale one stops within <= 100 ms (docs/firmware.md).
+  l->power_timeout = seconds_key(s, "power_timeout_s", l->power_timeout, {0.02, 0.1});
+  l->feedback_timeout = seconds_key(s, "feedback_timeout_s", l->feedback_timeout, {0.02, 0.1});
 }
 
 void read_mapping(const ConfigSection& m, ExecutiveConfig* e) {

@@ -46,6 +46,12 @@ for id in $(seq "$robots"); do
   $B/firmware/cairn-robot --config "$run/robot-$id.toml" --duration "$duration" 2>"$run/robot-$id.log" &
   pids+=($!)
 done
+# The e-stop latches: robot 2 stays stopped after its release (30-33 s) until an operator
+# resets it. Here the operator does so from the base at ~36 s (docs/firmware.md, "E-stop").
+if [ "$robots" -ge 2 ]; then
+  (sleep 36; echo "demo: operator resets robot 2's released e-stop from the base";
+   $B/basestation/cairn-base --config config/base-hil.toml --reset-estop 2 >"$run/reset.log" 2>&1) &
+fi
 wait "$base"
 sleep 1
 echo

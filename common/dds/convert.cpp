@@ -160,6 +160,25 @@ void to_dds(const msg::TaskAssignment& m, cairn_TaskAssignment* out) {
   std::copy_n(m.path_xy.begin(), 2 * n, out->path_xy);
 }
 
+void to_dds(const msg::SafetyReset& m, cairn_SafetyReset* out) {
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->issued_ns = m.issued;
+  std::size_t i = 0;
+  for (; i + 1 < sizeof out->issued_by && i < m.issued_by.size() && m.issued_by[i] != '\0'; ++i) out->issued_by[i] = m.issued_by[i];
+  out->issued_by[i] = '\0';
+}
+
+bool from_dds(const cairn_SafetyReset& m, msg::SafetyReset* out) {
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->issued = m.issued_ns;
+  std::size_t i = 0;  // a bounded copy: an unterminated string is cut, never overrun
+  for (; i + 1 < out->issued_by.size() && i < sizeof m.issued_by && m.issued_by[i] != '\0'; ++i) out->issued_by[i] = m.issued_by[i];
+  out->issued_by[i] = '\0';
+  return true;
+}
+
 bool from_dds(const cairn_TaskAssignment& m, msg::TaskAssignment* out) {
   bool ok = true;
   out->robot_id = m.robot_id;

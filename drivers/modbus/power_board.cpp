@@ -33,7 +33,7 @@ bool validate_register_map(const RegisterMap& m, std::string* error) {
     *error = "power board register map: slave " + std::to_string(m.slave) + " is not a Modbus unit id (1..247)";
     return false;
   }
-  for (int a : {m.voltage, m.current, m.soc, m.temperature, m.estop, m.motor_relay}) {
+  for (int a : {m.voltage, m.current, m.soc, m.temperature, m.estop, m.reset_input, m.motor_relay}) {
     if (a < 0 || a > 65535) {
       *error = "power board register map: address " + std::to_string(a) + " is outside 0..65535";
       return false;
@@ -45,6 +45,16 @@ bool validate_register_map(const RegisterMap& m, std::string* error) {
     *error = "power board register map: the input registers span " + std::to_string(lo) + ".." + std::to_string(hi) + " (" +
              std::to_string(hi - lo + 1) + " registers); one Modbus read holds at most " + std::to_string(kMaxReadRegisters) +
              ", so it could never be polled";
+    return false;
+  }
+  if (m.estop == m.reset_input) {
+    *error = "power board register map: the e-stop and reset inputs are both discrete input " + std::to_string(m.estop);
+    return false;
+  }
+  if (std::abs(m.estop - m.reset_input) >= kMaxSafetyInputSpan) {
+    *error = "power board register map: the e-stop input (" + std::to_string(m.estop) + ") and the reset input (" +
+             std::to_string(m.reset_input) + ") must lie within " + std::to_string(kMaxSafetyInputSpan) +
+             " bits, so the fast path reads both in one request";
     return false;
   }
   return true;
@@ -121,7 +131,18 @@ void PowerBoard::note_failure() {
   ++counters_.errors;
   if (errno == ETIMEDOUT) ++counters_.timeouts;
   if (errno == ECONNRESET || errno == EPIPE || errno == EBADF || errno == ECONNREFUSED) {
-    // The link broke: reconnect (TCP server restarted, USB adapter replugged).
+    // The link broke: reconnect (TCP server restarted, USB adapter replugged), at most once
+    // per kReconnectBackoff; libmodbus bounds the connect itself by the response timeout.
+    const Nanos now = MonotonicClock::instance().now();
+    if (now < next_reconnect_) return;
+    next_reconnect_ = now + kReconnectBackoff;
+    modbus_close(ctx_);
+    if (modbus_connect(ctx_) == 0) ++counters_.reconnects;
+  } else if (uri_.rfind("tcp:", 0) == 0 && errno != EMBXILFUN && errno != EMBXILADD && errno != EMBXILVAL) {
+    // A timeout or a bad reply on TCP: the late reply may still be on its way and would be
+    // taken as the next request's (a transaction-id mismatch, and so on for every read
+    // after). A fresh connection resynchronises at once (connect bounded by the response
+    // timeout). An exception reply was a complete answer: nothing to resynchronise.
     modbus_close(ctx_);
     if (modbus_connect(ctx_) == 0) ++counters_.reconnects;
   } else {
@@ -132,7 +153,6 @@ void PowerBoard::note_failure() {
 bool PowerBoard::poll(PowerState* out, std::string* error) {
   ++counters_.polls;
   std::uint16_t regs[4];
-  std::uint8_t estop = 0;
   // One read covers the four registers when they are consecutive (the usual map).
   const int lo = std::min({map_.voltage, map_.current, map_.soc, map_.temperature});
   const int hi = std::max({map_.voltage, map_.current, map_.soc, map_.temperature});
@@ -147,12 +167,7 @@ bool PowerBoard::poll(PowerState* out, std::string* error) {
   regs[1] = block[map_.current - lo];
   regs[2] = block[map_.soc - lo];
   regs[3] = block[map_.temperature - lo];
-  if (modbus_read_input_bits(ctx_, map_.estop, 1, &estop) != 1) {
-    *error = uri_ + ": reading the e-stop input: " + modbus_strerror(errno);
-    note_failure();
-    return false;
-  }
-  if (!decode_power(regs, estop != 0, map_, out)) {
+  if (!decode_power(regs, false, map_, out)) {
     ++counters_.invalid;
     *error = uri_ + ": implausible power reading (check the register map)";
     return false;
@@ -161,16 +176,22 @@ bool PowerBoard::poll(PowerState* out, std::string* error) {
   return true;
 }
 
-int PowerBoard::estop_pressed() {
-  std::uint8_t bit = 0;
-  if (modbus_read_input_bits(ctx_, map_.estop, 1, &bit) != 1) {
+bool PowerBoard::read_safety_inputs(SafetyInputBits* out) {
+  ++counters_.input_reads;
+  const int lo = std::min(map_.estop, map_.reset_input);
+  const int n = std::abs(map_.estop - map_.reset_input) + 1;  // <= kMaxSafetyInputSpan (validated)
+  std::uint8_t bits[kMaxSafetyInputSpan] = {};
+  if (n > kMaxSafetyInputSpan || modbus_read_input_bits(ctx_, lo, n, bits) != n) {
     note_failure();
-    return -1;
+    return false;
   }
-  return bit ? 1 : 0;
+  out->estop = bits[map_.estop - lo] != 0;
+  out->reset = bits[map_.reset_input - lo] != 0;
+  return true;
 }
 
 bool PowerBoard::set_motor_power(bool on, std::string* error) {
+  ++counters_.relay_writes;
   if (modbus_write_bit(ctx_, map_.motor_relay, on ? 1 : 0) != 1) {
     *error = uri_ + ": switching the motor relay: " + modbus_strerror(errno);
     note_failure();

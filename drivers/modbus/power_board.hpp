@@ -20,8 +20,14 @@ namespace cairn::modbus {
 /// the four input registers are polled in one read, so they must lie within 125
 /// consecutive addresses.
 inline constexpr int kMaxReadRegisters = 125;
+/// The e-stop and reset inputs are read in one request: at most this many bits apart.
+inline constexpr int kMaxSafetyInputSpan = 16;
+/// A broken link is reconnected at most this often (each attempt is bounded by the
+/// response timeout: libmodbus' TCP connect waits at most that long).
+inline constexpr Nanos kReconnectBackoff = 100 * kNanosPerMilli;
 /// Whether `map` can be polled: slave 1..247, addresses 0..65535, four distinct input
-/// registers spanning at most kMaxReadRegisters. False with a clear reason.
+/// registers spanning at most kMaxReadRegisters, distinct e-stop and reset inputs at most
+/// kMaxSafetyInputSpan bits apart. False with a clear reason.
 bool validate_register_map(const RegisterMap& map, std::string* error);
 
 class PowerBoard final : public PowerLink {
@@ -33,11 +39,16 @@ class PowerBoard final : public PowerLink {
                                           std::string* error);
   ~PowerBoard();
 
-  /// Reads all values (two transactions). False with a reason on failure (counted).
+  /// Reads the battery values: one transaction (the four input registers). The e-stop is
+  /// not read here (read_safety_inputs() is the fast path). False with a reason on failure.
   bool poll(PowerState* out, std::string* error) override;
-  /// The e-stop fast path: one short transaction reading only the e-stop input.
-  /// Returns 1 pressed, 0 released, -1 on failure.
-  int estop_pressed() override;
+  /// The e-stop fast path: one short transaction reading the e-stop and reset discrete
+  /// inputs (one read when they lie within kMaxSafetyInputSpan bits, which
+  /// validate_register_map() requires). False on failure (counted; a broken link is
+  /// reconnected at most once per reconnect_backoff, each attempt bounded by the
+  /// response timeout).
+  bool read_safety_inputs(SafetyInputBits* out) override;
+  /// Writes the motor-power relay coil (one transaction).
   bool set_motor_power(bool on, std::string* error) override;
   const PowerCounters& counters() const override { return counters_; }
 
@@ -49,6 +60,7 @@ class PowerBoard final : public PowerLink {
   RegisterMap map_;
   PowerCounters counters_;
   bool connected_ = true;
+  Nanos next_reconnect_ = 0;
 };
 
 }  // namespace cairn::modbus

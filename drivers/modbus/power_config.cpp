@@ -13,6 +13,7 @@ RegisterMap register_map_from_config(const ConfigSection& s) {
   m.soc = addr("soc_register", m.soc);
   m.temperature = addr("temperature_register", m.temperature);
   m.estop = addr("estop_input", m.estop);
+  m.reset_input = addr("reset_input", m.reset_input);
   m.motor_relay = addr("motor_relay_coil", m.motor_relay);
   m.voltage_scale = s.number_or("voltage_scale", m.voltage_scale, {1e-6, 1e3});
   m.current_scale = s.number_or("current_scale", m.current_scale, {1e-6, 1e3});

@@ -12,10 +12,17 @@ namespace cairn::modbus {
 class PowerLink {
  public:
   virtual ~PowerLink() = default;
-  /// Reads all values. False with a reason on failure (counted).
+  /// Reads the battery values (not the e-stop: that is the fast path's). False with a
+  /// reason on failure (counted).
   virtual bool poll(PowerState* out, std::string* error) = 0;
-  /// The e-stop fast path: 1 pressed, 0 released, -1 on failure.
-  virtual int estop_pressed() = 0;
+  /// The e-stop fast path: the e-stop and reset inputs in one short transaction. False on
+  /// failure (counted); every call is bounded by the link's response timeout.
+  virtual bool read_safety_inputs(SafetyInputBits* out) = 0;
+  /// 1 pressed, 0 released, -1 on failure (read_safety_inputs' e-stop bit).
+  int estop_pressed() {
+    SafetyInputBits b;
+    return read_safety_inputs(&b) ? (b.estop ? 1 : 0) : -1;
+  }
   virtual bool set_motor_power(bool on, std::string* error) = 0;
   virtual const PowerCounters& counters() const = 0;
 };

@@ -12,6 +12,7 @@ struct RegisterMap {
   int slave = 1;
   int voltage = 0, current = 1, soc = 2, temperature = 3;  // input register addresses
   int estop = 0;                                           // discrete input (1 = pressed)
+  int reset_input = 1;                                     // discrete input (1 = reset button held)
   int motor_relay = 0;                                     // coil (1 = motor power on)
   double voltage_scale = 0.01;     // V per count (u16)
   double current_scale = 0.01;     // A per count (i16, positive = discharging)
@@ -30,8 +31,15 @@ struct PowerState {
 /// and the e-stop bit; false if a value is outside what a power board can report.
 bool decode_power(const std::uint16_t regs[4], bool estop, const RegisterMap& map, PowerState* out);
 
+/// The safety inputs, read together by the e-stop fast path.
+struct SafetyInputBits {
+  bool estop = false;  // the e-stop input: 1 = pressed
+  bool reset = false;  // the board's reset input: 1 = the reset button is held
+};
+
 struct PowerCounters {
   std::uint64_t polls = 0, errors = 0, timeouts = 0, reconnects = 0, invalid = 0;
+  std::uint64_t input_reads = 0, relay_writes = 0;
 };
 
 }  // namespace cairn::modbus

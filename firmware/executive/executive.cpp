@@ -123,6 +123,8 @@ void Executive::can_thread() {
   canopen::WheelCommand cmd;
   std::uint64_t updates = 0;
   Nanos wheel_stamp = 0;
+  std::array<std::uint64_t, 2> drive_updates{};
+  std::array<Nanos, 2> drive_fresh{-1, -1};  // when each drive's newest TPDO arrived
   while (running_.load(std::memory_order_relaxed)) {
     if (enable_request_.exchange(false)) master_->enable_all();
     master_->step();
@@ -131,13 +133,21 @@ void Executive::can_thread() {
     master_->command(velocities);
     const auto& l = master_->feedback(0);
     const auto& r = master_->feedback(1);
-    // Written every pass (the enabled flag matters even without new positions); the
-    // stamp moves only when new positions arrive.
+    const Nanos pass = clock.now();
+    // Written every pass (the enabled flag and the pass stamp matter even without new
+    // positions); the stamp moves only when new positions arrive.
     if (l.updates + r.updates != updates) {
       updates = l.updates + r.updates;
-      wheel_stamp = clock.now();
+      wheel_stamp = pass;
     }
-    wheels_.write({l.position, r.position, updates, master_->all_enabled(), wheel_stamp});
+    for (std::size_t i = 0; i < 2; ++i) {
+      if (master_->feedback(i).updates != drive_updates[i]) {
+        drive_updates[i] = master_->feedback(i).updates;
+        drive_fresh[i] = pass;
+      }
+    }
+    const Nanos feedback = drive_fresh[0] < 0 || drive_fresh[1] < 0 ? -1 : std::min(drive_fresh[0], drive_fresh[1]);
+    wheels_.write({l.position, r.position, updates, master_->all_enabled(), wheel_stamp, feedback, pass});
     const Nanos now = clock.now();
     if (now >= next_snapshot) {
       next_snapshot = now + 100 * kNanosPerMilli;
@@ -158,6 +168,13 @@ void Executive::can_thread() {
 }
 
 // ---- power-board I/O thread ----------------------------------------------------------
+//
+// One Modbus link, one thread, a fixed cycle (estop_poll): each cycle first reads the
+// e-stop and reset inputs (the fast path, one short transaction), acts on a press at once
+// (the drive master's lock-free request_estop(), then motor power off), and then does at
+// most one other transaction: the motor relay when it must change, else the battery poll
+// when due. So an e-stop read waits behind at most one short transaction, never behind a
+// full poll; every transaction is bounded by the response timeout.
 
 void Executive::power_thread() {
   rt_reports_[2] = "power: " + apply_rt(cfg_.io_threads);
@@ -169,34 +186,51 @@ void Executive::power_thread() {
   DeviceSnapshot d;
   copy_text(&d.name, "power");
   if (hooks_.steady) hooks_.steady("power");
-  Nanos next_poll = 0, next_estop = 0;
+  Nanos next_cycle = clock.now(), next_poll = 0, next_snapshot = 0;
+  bool last_reset = false, poll_ok = false;
+  int relay = -1;  // what the relay coil was last written to (-1: unknown / the write failed)
   while (running_.load(std::memory_order_relaxed)) {
-    const Nanos now = clock.now();
-    if (now >= next_estop) {
-      next_estop = now + cfg_.estop_poll;
-      const int e = power.estop_pressed();
-      if (e == 1) {
-        if (!estop_.exchange(true)) master_->request_estop();  // the fast path: no RT hop
-        last_power_.store(now, std::memory_order_release);
-      } else if (e == 0) {
-        estop_.store(false);
-        last_power_.store(now, std::memory_order_release);
+    // 1. The fast path.
+    modbus::SafetyInputBits in;
+    if (power.read_safety_inputs(&in)) {
+      if (in.estop) {
+        if (!estop_.exchange(true, std::memory_order_acq_rel)) {
+          master_->request_estop();  // torque off at once: no RT hop
+          motor_power_want_.store(false, std::memory_order_release);  // off until a reset (below, this cycle)
+          estop_presses_.fetch_add(1, std::memory_order_acq_rel);      // the RT loop latches even a short press
+        }
+      } else {
+        estop_.store(false, std::memory_order_release);
       }
-    }
-    if (now >= next_poll) {
+      last_power_.store(clock.now(), std::memory_order_release);
+      if (in.reset && !last_reset) reset_requests_.fetch_add(1, std::memory_order_acq_rel);  // the button's rising edge
+      last_reset = in.reset;
+    }  // a failed read is counted by the link; no good read for power_timeout stops and latches (RT loop)
+    // 2. At most one other transaction: the motor relay when it must change, else the poll.
+    const Nanos now = clock.now();
+    const bool want = motor_power_want_.load(std::memory_order_acquire) && !estop_.load(std::memory_order_acquire);
+    if (relay != (want ? 1 : 0)) {
+      relay = power.set_motor_power(want, &err) ? (want ? 1 : 0) : -1;
+    } else if (now >= next_poll) {
       next_poll = now + cfg_.power_poll;
-      const bool ok = power.poll(&ps, &err);
-      if (ok) power_state_.write(ps);
+      poll_ok = power.poll(&ps, &err);
+      if (poll_ok) power_state_.write(ps);
+    }
+    if (now >= next_snapshot) {
+      next_snapshot = now + 100 * kNanosPerMilli;
       const auto& c = power.counters();
-      d.state = ok ? 1 : 0;
-      copy_text(&d.reason, ok ? "ok" : err.c_str());
-      d.frames = static_cast<std::uint32_t>(c.polls);
+      d.state = poll_ok ? 1 : 0;
+      copy_text(&d.reason, poll_ok ? (relay == 1 ? "ok, motor power on" : "ok, motor power off") : err.c_str());
+      d.frames = static_cast<std::uint32_t>(c.polls + c.input_reads);
       d.timeouts = static_cast<std::uint32_t>(c.timeouts);
       d.recoveries = static_cast<std::uint32_t>(c.reconnects);
       d.errors = static_cast<std::uint32_t>(c.errors + c.invalid);
       device_box_[3].write(d);
     }
-    clock.sleep_until(std::min(next_estop, next_poll));
+    next_cycle += cfg_.estop_poll;
+    const Nanos after = clock.now();
+    if (next_cycle < after) next_cycle = after;  // a slow transaction: read again at once, no burst
+    clock.sleep_until(next_cycle);
   }
   if (hooks_.finished) hooks_.finished("power");
 }
@@ -262,19 +296,40 @@ void Executive::map_worker_thread() {
 
 void Executive::control_cycle(Nanos now, double dt) {
   const bool estop = estop_.load(std::memory_order_acquire);
-  if (was_estop_ && !estop) enable_request_.store(true);  // released: enable again
-  was_estop_ = estop;
+  const std::uint32_t resets = reset_requests_.load(std::memory_order_acquire);
+  const std::uint32_t presses = estop_presses_.load(std::memory_order_acquire);
+  const bool pressed_since = presses != presses_seen_;  // a press shorter than a cycle still latches
+  presses_seen_ = presses;
   Velocity cmd;
   velocity_.read(&cmd);
   ControlInputs in;
   in.now = now;
-  in.estop = estop;
+  in.estop = estop || pressed_since;
   in.last_link = last_link_.load(std::memory_order_acquire);
   in.last_power = last_power_.load(std::memory_order_acquire);
   in.v = cmd.v;
   in.w = cmd.w;
   in.command_stamp = cmd.stamp;
+  in.reset = resets != resets_seen_;
+  resets_seen_ = resets;
   wheel_cmd_.write(core_.control(in, dt));
+  // The latch: set, the drives are disabled and motor power goes off (a press already did
+  // both from the power thread; a lost input or a stalled CAN thread does it here). Only
+  // an accepted reset switches motor power on and lets the drive master enable again.
+  const SafetySupervisor& safety = core_.safety();
+  if (safety.latched() && !was_latched_) {
+    master_->request_estop();
+    motor_power_want_.store(false, std::memory_order_release);
+    CAIRN_LOG_WARN("safety", "latched: {}; drives disabled, motor power off until a reset", latch_cause_text(safety.latch_cause()));
+  }
+  if (safety.reset_accepted()) {
+    motor_power_want_.store(true, std::memory_order_release);
+    enable_request_.store(true, std::memory_order_release);
+    CAIRN_LOG_INFO("safety", "reset accepted: motor power on, enabling the drives");
+  } else if (in.reset && safety.latched()) {
+    CAIRN_LOG_WARN("safety", "reset refused: {}", stop_reason_text(core_.stop()));
+  }
+  was_latched_ = safety.latched();
 
   modbus::PowerState ps;
   power_state_.read(&ps);
@@ -283,6 +338,11 @@ void Executive::control_cycle(Nanos now, double dt) {
   snap_.v = core_.v();
   snap_.w = core_.w();
   snap_.estop = estop;
+  snap_.latched = safety.latched();
+  snap_.latch_cause = safety.latch_cause();
+  snap_.motor_power = motor_power_want_.load(std::memory_order_relaxed) && !estop;
+  snap_.resets_accepted = safety.resets_accepted();
+  snap_.resets_refused = safety.resets_refused();
   snap_.stops = core_.stops();
   snap_.scans = c.scans;
   snap_.matched = c.matched;

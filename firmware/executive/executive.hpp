@@ -50,6 +50,10 @@ struct RtSnapshot {
   std::uint64_t cycles = 0, misses = 0, overflows = 0, scans = 0, matched = 0, stops = 0;
   std::uint64_t publish_drops = 0;
   bool estop = false;
+  bool latched = false;        // the e-stop latch: drives disabled, motor power off until a reset
+  LatchCause latch_cause = LatchCause::kNone;
+  bool motor_power = false;    // what the executive asks of the board's motor relay
+  std::uint64_t resets_accepted = 0, resets_refused = 0;
   double battery_voltage = 0, battery_soc = 0;
 };
 
@@ -85,6 +89,10 @@ class Executive {
   // Non-RT side (one thread).
   void set_velocity(double v, double w, Nanos now);
   void note_link(Nanos now) { last_link_.store(now, std::memory_order_release); }
+  /// An explicit e-stop reset (the base's SafetyReset, SIGUSR1, ...), from any thread: the
+  /// RT loop's next cycle accepts it if the e-stop reads released, the power board answers
+  /// and the CAN thread cycles; otherwise it is refused (counted) and forgotten.
+  void request_reset() { reset_requests_.fetch_add(1, std::memory_order_acq_rel); }
   bool pop_odometry(msg::OdometryIncrement* out) { return odometry_q_.pop(out); }
   bool pop_laser(msg::LaserScan* out) { return laser_q_.pop(out); }
   bool pop_features(msg::FeatureObservations* out) { return feature_q_.pop(out); }
@@ -141,11 +149,15 @@ class Executive {
   std::array<LatestBox<DeviceSnapshot>, 4> device_box_;
   std::atomic<Nanos> last_link_{-1}, last_power_{-1};
   std::atomic<bool> estop_{false}, enable_request_{false};
+  std::atomic<bool> motor_power_want_{true};      // RT -> power thread (off while latched)
+  std::atomic<std::uint32_t> reset_requests_{0};  // any thread -> RT (a count: edges are not lost)
+  std::atomic<std::uint32_t> estop_presses_{0};   // power thread -> RT
   std::atomic<std::uint64_t> publish_drops_{0};
   // RT-thread state (touched only by the RT thread after start).
   RobotCore core_;
   std::unique_ptr<lms::LmsScan> scan_work_;
-  bool was_estop_ = false;
+  bool was_latched_ = false;
+  std::uint32_t resets_seen_ = 0, presses_seen_ = 0;
   RtSnapshot snap_;
   std::thread threads_[5];
 };

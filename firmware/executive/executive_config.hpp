@@ -34,8 +34,10 @@ struct ExecutiveConfig {
   canopen::DiffDriveGeometry geometry;
   std::string power_uri;
   modbus::RegisterMap power_map;
-  Nanos power_response_timeout = 50 * kNanosPerMilli;
-  Nanos estop_poll = 5 * kNanosPerMilli;
+  // Every Modbus transaction's bound: two failed e-stop reads in a row stay inside the
+  // 50 ms power_timeout, a slow transaction delays the next e-stop read by at most this.
+  Nanos power_response_timeout = 20 * kNanosPerMilli;
+  Nanos estop_poll = 5 * kNanosPerMilli;  // the fast path's cycle: e-stop + reset inputs
   Nanos power_poll = 500 * kNanosPerMilli;
   // RT loop.
   Nanos period = 10 * kNanosPerMilli;

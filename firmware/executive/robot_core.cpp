@@ -21,6 +21,8 @@ RobotCore::RobotCore(const ExecutiveConfig& cfg)
 
 void RobotCore::on_wheels(const WheelReading& ws) {
   drives_enabled_ = ws.enabled;
+  last_feedback_ = ws.feedback_stamp;
+  last_can_pass_ = ws.pass;
   if (ws.stamp == last_wheel_stamp_) return;
   const Nanos t0 = last_wheel_stamp_ < 0 ? ws.stamp : last_wheel_stamp_;
   last_wheel_stamp_ = ws.stamp;
@@ -43,6 +45,9 @@ canopen::WheelCommand RobotCore::control(const ControlInputs& c, double dt) {
   in.last_scan = last_scan_;
   in.last_command = c.command_stamp;
   in.last_power = c.last_power;
+  in.last_feedback = last_feedback_;
+  in.last_can_pass = last_can_pass_;
+  in.reset = c.reset;
   in.v = c.v;
   in.w = c.w;
   double v = 0, w = 0;

@@ -20,6 +20,8 @@ struct WheelReading {
   std::uint64_t updates = 0;
   bool enabled = false;  // every drive operation enabled
   Nanos stamp = 0;       // when these positions arrived (a new stamp = a new sample)
+  Nanos feedback_stamp = -1;  // the oldest of the drives' newest TPDO arrivals (-1: none yet)
+  Nanos pass = -1;            // when the CAN thread wrote this reading (its liveness)
 };
 
 /// What one control cycle reads besides the wheels.
@@ -29,6 +31,7 @@ struct ControlInputs {
   Nanos last_link = -1, last_power = -1;  // -1: never
   double v = 0, w = 0;                    // requested velocity
   Nanos command_stamp = -1;               // when it was requested
+  bool reset = false;                     // an e-stop reset was requested since the last cycle
 };
 
 class RobotOutputs {
@@ -62,6 +65,8 @@ class RobotCore {
   double v() const { return v_; }
   double w() const { return w_; }
   bool drives_enabled() const { return drives_enabled_; }
+  /// The e-stop latch (SafetySupervisor): drives disabled and motor power off while set.
+  const SafetySupervisor& safety() const { return safety_; }
   Nanos last_scan() const { return last_scan_; }
   CoreCounters counters() const;
   localmap::LocalMapper& mapper() { return mapper_; }
@@ -88,6 +93,7 @@ class RobotCore {
   std::size_t steps_head_ = 0, steps_count_ = 0;
   Nanos last_wheel_stamp_ = -1;
   bool drives_enabled_ = false;
+  Nanos last_feedback_ = -1, last_can_pass_ = -1;
   std::unique_ptr<Vec2[]> points_;
   std::unique_ptr<msg::LaserScan> laser_msg_;
   std::unique_ptr<msg::FeatureObservations> feature_msg_;

@@ -14,6 +14,18 @@ const char* stop_reason_text(StopReason r) {
     case StopReason::kLaserLost: return "laser silent";
     case StopReason::kCommandStale: return "no velocity command";
     case StopReason::kPowerLost: return "power board silent";
+    case StopReason::kFeedbackStale: return "wheel feedback stale";
+    case StopReason::kResetRequired: return "e-stop latched: reset required";
+  }
+  return "unknown";
+}
+
+const char* latch_cause_text(LatchCause c) {
+  switch (c) {
+    case LatchCause::kNone: return "none";
+    case LatchCause::kEstop: return "e-stop pressed";
+    case LatchCause::kEstopInputLost: return "e-stop input lost";
+    case LatchCause::kCanStalled: return "CAN thread stalled";
   }
   return "unknown";
 }
@@ -25,10 +37,37 @@ double ramp(double current, double target, double max_step) {
 }
 }  // namespace
 
+void SafetySupervisor::latch(LatchCause c) {
+  if (!latched_) cause_ = c;
+  latched_ = true;
+}
+
 StopReason SafetySupervisor::evaluate(const SafetyInputs& in, double dt, double* v, double* w) {
+  // The latch first: what sets it, then a reset request (accepted only when every cause is gone).
+  const bool power_stale = stale(in.last_power, in.now, limits_.power_timeout);
+  const bool estop_pressed = !power_stale && in.estop;
+  const bool can_stalled = in.last_can_pass >= 0 && in.now - in.last_can_pass > limits_.feedback_timeout;
+  if (estop_pressed) latch(LatchCause::kEstop);
+  if (power_stale && in.last_power >= 0) latch(LatchCause::kEstopInputLost);  // heard once, then lost
+  if (can_stalled) latch(LatchCause::kCanStalled);
+  reset_accepted_ = false;
+  if (in.reset && latched_) {
+    if (!power_stale && !estop_pressed && !can_stalled) {
+      latched_ = false;
+      cause_ = LatchCause::kNone;
+      reset_accepted_ = true;
+      ++resets_accepted_;
+    } else {
+      ++resets_refused_;
+    }
+  }
+  const bool feedback_stale = can_stalled || (in.drives_enabled && stale(in.last_feedback, in.now, limits_.feedback_timeout));
+
   StopReason r = StopReason::kNone;
-  if (in.estop) r = StopReason::kEstop;
-  else if (stale(in.last_power, in.now, limits_.power_timeout)) r = StopReason::kPowerLost;
+  if (estop_pressed) r = StopReason::kEstop;
+  else if (power_stale) r = StopReason::kPowerLost;
+  else if (feedback_stale) r = StopReason::kFeedbackStale;
+  else if (latched_) r = StopReason::kResetRequired;
   else if (!in.drives_enabled) r = StopReason::kDrivesNotReady;
   else if (stale(in.last_scan, in.now, limits_.laser_timeout)) r = StopReason::kLaserLost;
   else if (stale(in.last_link, in.now, limits_.link_timeout)) r = StopReason::kLinkLost;

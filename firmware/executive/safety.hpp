@@ -1,6 +1,15 @@
 // The robot's safety supervisor, evaluated once per RT cycle on plain inputs: any stop
 // condition forces zero velocity with a reason; otherwise the requested velocity is
-// clamped to the limits and rate-limited to the acceleration limits. Pure.
+// clamped to the limits and rate-limited to the acceleration limits. Pure (no clock, no
+// devices): time and inputs arrive with every call, so it is tested on simulated time.
+//
+// The e-stop latches (EN ISO 13850): a pressed e-stop, a lost e-stop input (no good read
+// of the power board within power_timeout, once it has answered) or a stalled CAN thread
+// (its zero command can no longer reach the drives) sets the latch; it stays set after
+// the cause is gone, with the drives disabled and motor power off, until an explicit
+// reset (a DDS SafetyReset from the base, SIGUSR1 to cairn-robot, or the board's reset
+// input). A reset is accepted only when the e-stop reads released, the input is fresh and
+// the CAN thread cycles; a refused reset is counted and forgotten (never acted on later).
 #pragma once
 
 #include <cstdint>
@@ -17,9 +26,15 @@ enum class StopReason : std::uint8_t {
   kLinkLost = 3,         // no PoseCorrection / TaskAssignment within the link timeout
   kLaserLost = 4,        // no scan within the laser timeout
   kCommandStale = 5,     // the velocity source went silent
-  kPowerLost = 6,        // the power board does not answer
+  kPowerLost = 6,        // the power board (its e-stop input) does not answer
+  kFeedbackStale = 7,    // no fresh wheel feedback (TPDO) from an enabled drive, or the CAN thread stalled
+  kResetRequired = 8,    // latched (e-stop released, input or CAN thread back): waiting for a reset
 };
 const char* stop_reason_text(StopReason r);
+
+/// Why the latch is set (the first cause since the last reset).
+enum class LatchCause : std::uint8_t { kNone = 0, kEstop = 1, kEstopInputLost = 2, kCanStalled = 3 };
+const char* latch_cause_text(LatchCause c);
 
 struct SafetyLimits {
   double max_v = 0.8, max_w = 1.5;       // m/s, rad/s
@@ -27,17 +42,24 @@ struct SafetyLimits {
   Nanos link_timeout = 2 * kNanosPerSecond;   // 0 = no base-station link required
   Nanos laser_timeout = 500 * kNanosPerMilli;
   Nanos command_timeout = 500 * kNanosPerMilli;
-  Nanos power_timeout = 1 * kNanosPerSecond;
+  /// No good read of the e-stop input this long: stop and latch (<= 100 ms, validated).
+  Nanos power_timeout = 50 * kNanosPerMilli;
+  /// An enabled drive's newest TPDO older than this, or the CAN thread silent this long:
+  /// stop (the latter also latches and cuts motor power). <= 100 ms, validated.
+  Nanos feedback_timeout = 50 * kNanosPerMilli;
 };
 
 struct SafetyInputs {
   Nanos now = 0;
-  bool estop = false;
+  bool estop = false;       // the last good read of the e-stop input
   bool drives_enabled = false;
   Nanos last_link = -1;     // -1: never heard
   Nanos last_scan = -1;
   Nanos last_command = -1;
-  Nanos last_power = -1;
+  Nanos last_power = -1;    // the last good read of the e-stop input
+  Nanos last_feedback = -1; // the oldest of the drives' newest TPDO arrivals
+  Nanos last_can_pass = -1; // the CAN thread's last pass (-1: not started yet)
+  bool reset = false;       // a reset was requested since the last cycle
   double v = 0, w = 0;      // requested
 };
 
@@ -48,12 +70,24 @@ class SafetySupervisor {
   StopReason evaluate(const SafetyInputs& in, double dt, double* v, double* w);
   StopReason reason() const { return reason_; }
   std::uint64_t stops() const { return stops_; }
+  /// The e-stop latch: set, the drives must be disabled and motor power off.
+  bool latched() const { return latched_; }
+  LatchCause latch_cause() const { return cause_; }
+  /// True for the one evaluate() that accepted a reset (the caller enables the drives and
+  /// switches motor power on).
+  bool reset_accepted() const { return reset_accepted_; }
+  std::uint64_t resets_accepted() const { return resets_accepted_; }
+  std::uint64_t resets_refused() const { return resets_refused_; }
 
  private:
+  void latch(LatchCause c);
   SafetyLimits limits_;
   double v_ = 0, w_ = 0;
   StopReason reason_ = StopReason::kNone;
   std::uint64_t stops_ = 0;
+  bool latched_ = false, reset_accepted_ = false;
+  LatchCause cause_ = LatchCause::kNone;
+  std::uint64_t resets_accepted_ = 0, resets_refused_ = 0;
 };
 
 }  // namespace cairn::firmware

@@ -265,6 +265,16 @@ void DriveNode::on_frame(const Frame& f, Nanos now) {
     return;
   }
   if (c.kind == Kind::kRpdo && c.node == cfg_.node && c.pdo == 0) {
+    const State before = state_;
+    const std::uint32_t target_before = od(0x60FF, 0);
+    handle_rpdo1(f);
+    if (before == State::kOperationEnabled && state_ != State::kOperationEnabled) torque_off_at_ = now;
+    if (target_before != 0 && od(0x60FF, 0) == 0) zero_target_at_ = now;
+  }
+}
+
+void DriveNode::handle_rpdo1(const Frame& f) {
+  {
     const std::uint32_t cob = od(0x1400, 1);
     if (cob & 0x80000000u) return;
     // Unpack by the RPDO1 mapping.

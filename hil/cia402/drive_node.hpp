@@ -55,6 +55,11 @@ class DriveNode {
   std::int64_t position() const { return static_cast<std::int64_t>(position_); }
   std::int32_t target_velocity() const { return static_cast<std::int32_t>(od(0x60FF, 0)); }
   std::uint64_t syncs() const { return syncs_; }
+  /// When the drive last left operation enabled (torque off) on a controlword it received
+  /// (RPDO or SDO) or on SYNC loss; 0 = never.
+  Nanos torque_off_at() const { return torque_off_at_; }
+  /// When an RPDO last changed the target velocity from non-zero to zero; 0 = never.
+  Nanos zero_target_at() const { return zero_target_at_; }
   bool sync_lost() const { return sync_lost_; }
 
  private:
@@ -68,6 +73,7 @@ class DriveNode {
   void reset_communication();
   void handle_sdo(const canopen::Frame& f);
   void handle_controlword(std::uint16_t cw);
+  void handle_rpdo1(const canopen::Frame& f);
   std::uint16_t statusword() const;
   void send(const canopen::Frame& f) {
     if (!silent_) out_.push_back(f);
@@ -87,6 +93,7 @@ class DriveNode {
   std::uint64_t syncs_ = 0;
   Nanos last_sync_ = 0;
   bool sync_lost_ = false;
+  Nanos torque_off_at_ = 0, zero_target_at_ = 0;
   // Segmented upload state (device name).
   std::string upload_;
   std::size_t upload_off_ = 0;

@@ -25,7 +25,7 @@ modbus_mapping_t* as_mapping(void* p) { return static_cast<modbus_mapping_t*>(p)
 PowerEmulator::PowerEmulator(Link link, modbus::RegisterMap map, BatteryConfig battery)
     : link_(link), map_(map), battery_(battery) {
   const int regs = std::max({map_.voltage, map_.current, map_.soc, map_.temperature}) + 1;
-  mapping_ = modbus_mapping_new(map_.motor_relay + 1, map_.estop + 1, 0, regs);
+  mapping_ = modbus_mapping_new(map_.motor_relay + 1, std::max(map_.estop, map_.reset_input) + 1, 0, regs);
   if (!mapping_) throw std::runtime_error("power emulator: modbus_mapping_new failed");
   last_update_ = MonotonicClock::instance().now();
   update_model();
@@ -76,8 +76,15 @@ PowerEmulator::~PowerEmulator() {
 
 void PowerEmulator::press_estop(bool pressed) {
   std::lock_guard l(mutex_);
+  if (estop_ != pressed) estop_changed_at_ = MonotonicClock::instance().now();
   estop_ = pressed;
   if (pressed) relay_ = false;  // the board's hardware cuts motor power
+  update_model();
+}
+
+void PowerEmulator::press_reset(bool held) {
+  std::lock_guard l(mutex_);
+  reset_ = held;
   update_model();
 }
 
@@ -107,14 +114,23 @@ void PowerEmulator::update_model() {
   m->tab_input_registers[map_.temperature] =
       static_cast<std::uint16_t>(static_cast<std::int16_t>(std::lround(temperature / map_.temperature_scale)));
   m->tab_input_bits[map_.estop] = estop_ ? 1 : 0;
+  m->tab_input_bits[map_.reset_input] = reset_ ? 1 : 0;
   m->tab_bits[map_.motor_relay] = relay_ ? 1 : 0;
 }
 
 int PowerEmulator::handle(std::uint8_t* query, int len, void* ctx) {
   if (silent_) return 0;
+  if (const Nanos d = reply_delay_.exchange(0); d > 0) ::usleep(static_cast<useconds_t>(d / kNanosPerMicro));
   std::lock_guard l(mutex_);
   update_model();
   const int rc = modbus_reply(static_cast<modbus_t*>(ctx), query, len, as_mapping(mapping_));
+  // Record writes to the relay coil (function 5, write single coil) for the timing tests.
+  const int h = modbus_get_header_length(static_cast<modbus_t*>(ctx));
+  if (rc > 0 && len >= h + 5 && query[h] == 0x05 && ((query[h + 1] << 8) | query[h + 2]) == map_.motor_relay) {
+    const Nanos now = MonotonicClock::instance().now();
+    ++relay_writes_;
+    (query[h + 3] == 0xFF ? relay_on_at_ : relay_off_at_) = now;
+  }
   // A write to the relay coil switches motor power, unless the e-stop holds it off.
   relay_ = as_mapping(mapping_)->tab_bits[map_.motor_relay] != 0 && !estop_;
   as_mapping(mapping_)->tab_bits[map_.motor_relay] = relay_ ? 1 : 0;

@@ -137,6 +137,27 @@ TEST(Convert, CorrectionAndTaskRoundTrip) {
   EXPECT_EQ(t2.kind, msg::TaskKind::kStop);
 }
 
+TEST(Convert, SafetyResetRoundTripsAndAnUnterminatedNameIsCut) {
+  msg::SafetyReset r;
+  r.robot_id = 3;
+  r.seq = 9;
+  r.issued = 123456789;
+  const char who[] = "operator at the base";
+  std::memcpy(r.issued_by.data(), who, sizeof who);
+  cairn_SafetyReset d{};
+  dds::to_dds(r, &d);
+  EXPECT_STREQ(d.issued_by, who);
+  msg::SafetyReset r2;
+  EXPECT_TRUE(dds::from_dds(d, &r2));
+  EXPECT_EQ(r2.robot_id, 3);
+  EXPECT_EQ(r2.seq, 9u);
+  EXPECT_EQ(r2.issued, 123456789);
+  EXPECT_STREQ(r2.issued_by.data(), who);
+  std::memset(d.issued_by, 'x', sizeof d.issued_by);  // no terminator from the wire
+  EXPECT_TRUE(dds::from_dds(d, &r2));
+  EXPECT_EQ(std::strlen(r2.issued_by.data()), r2.issued_by.size() - 1);
+}
+
 TEST(Convert, LandmarkPages) {
   std::vector<msg::Landmark> all(300);
   for (std::size_t i = 0; i < all.size(); ++i) all[i] = {static_cast<std::uint32_t>(i), static_cast<double>(i), -static_cast<double>(i), {1, 0, 0, 1}};

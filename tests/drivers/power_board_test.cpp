@@ -1,6 +1,7 @@
 // The power board over Modbus against the libmodbus-server emulator (TCP and RTU over a
-// pty pair): readings, the motor relay, errors; and the e-stop fast path that disables
-// the drives within one control period.
+// pty pair): readings, the safety inputs (e-stop, reset), the motor relay, errors; and the
+// drive master's cross-thread e-stop request. (The executive's e-stop fast path, from
+// the input on the board to torque off at the drives, is measured in executive_hil_test.)
 #include "drivers/modbus/power_board.hpp"
 
 #include <gtest/gtest.h>
@@ -35,15 +36,41 @@ void check_readings_and_relay(hil::PowerEmulator& emu, modbus::PowerBoard& board
   EXPECT_NEAR(s.voltage, 23.0 + 4.2 * 0.9 - 1.2 * 0.05, 0.02);
   EXPECT_NEAR(s.current, 1.2, 0.01);
   EXPECT_FALSE(s.estop);
+  EXPECT_EQ(emu.relay_writes(), 0u);
+  const Nanos before_on = MonotonicClock::instance().now();
   ASSERT_TRUE(board.set_motor_power(true, &err)) << err;
   EXPECT_TRUE(emu.motor_relay());
+  EXPECT_EQ(emu.relay_writes(), 1u);  // the emulator records every write to the relay coil
+  EXPECT_GT(emu.relay_on_written_at(), before_on);
+  EXPECT_EQ(emu.relay_off_written_at(), 0);
   ASSERT_TRUE(board.poll(&s, &err)) << err;
   EXPECT_NEAR(s.current, 5.2, 0.01);
+  // The reset input, read with the e-stop in one transaction.
+  modbus::SafetyInputBits bits;
+  ASSERT_TRUE(board.read_safety_inputs(&bits));
+  EXPECT_FALSE(bits.estop);
+  EXPECT_FALSE(bits.reset);
+  emu.press_reset(true);
+  ASSERT_TRUE(board.read_safety_inputs(&bits));
+  EXPECT_FALSE(bits.estop);
+  EXPECT_TRUE(bits.reset);
+  emu.press_reset(false);
+  ASSERT_TRUE(board.read_safety_inputs(&bits));
+  EXPECT_FALSE(bits.reset);
+  const Nanos before_press = MonotonicClock::instance().now();
   emu.press_estop(true);
+  EXPECT_GE(emu.estop_changed_at(), before_press);
+  ASSERT_TRUE(board.read_safety_inputs(&bits));
+  EXPECT_TRUE(bits.estop);
+  EXPECT_FALSE(bits.reset);
   EXPECT_EQ(board.estop_pressed(), 1);
   EXPECT_FALSE(emu.motor_relay());  // the e-stop cuts motor power on the board itself
   ASSERT_TRUE(board.set_motor_power(true, &err));
   EXPECT_FALSE(emu.motor_relay());  // and holds it off
+  const Nanos before_off = MonotonicClock::instance().now();
+  ASSERT_TRUE(board.set_motor_power(false, &err));
+  EXPECT_GT(emu.relay_off_written_at(), before_off);
+  EXPECT_EQ(emu.relay_writes(), 3u);
   emu.press_estop(false);
   EXPECT_EQ(board.estop_pressed(), 0);
   EXPECT_EQ(board.counters().errors, 0u);
@@ -83,6 +110,22 @@ TEST(PowerBoard, ErrorsAreClearAndCounted) {
   // Implausible values are rejected by the decoder.
   const std::uint16_t regs[4] = {60000, 0, 500, 300};
   EXPECT_FALSE(modbus::decode_power(regs, false, {}, &s));
+}
+
+// A reply that comes after the response timeout: that read fails, and the next ones must
+// not take the late reply for theirs (on TCP the link is reconnected to resynchronise).
+TEST(PowerBoard, ALateReplyCostsOneReadNotAStreamOfThem) {
+  hil::PowerEmulator emu(hil::PowerEmulator::Link::kTcp, {}, {});
+  std::string err;
+  auto board = modbus::PowerBoard::open(emu.uri(), {}, 20 * kNanosPerMilli, &err);
+  ASSERT_TRUE(board) << err;
+  modbus::SafetyInputBits bits;
+  ASSERT_TRUE(board->read_safety_inputs(&bits));
+  emu.delay_next_reply(40 * kNanosPerMilli);
+  EXPECT_FALSE(board->read_safety_inputs(&bits));
+  usleep(40000);  // the late reply arrives
+  for (int i = 0; i < 5; ++i) EXPECT_TRUE(board->read_safety_inputs(&bits)) << "read " << i << " after the late reply";
+  EXPECT_EQ(board->counters().errors, 1u);
 }
 
 // A malformed port or baud rate is a clear error, not an exception out of std::stoi.
@@ -167,7 +210,8 @@ TEST(PowerBoard, EstopDisablesTheDrivesWithinOneControlPeriod) {
     const std::int32_t v[] = {20000, -20000};
     master.command(v);
   }
-  // The power board's e-stop input, polled back to back by the power I/O thread (the fast path).
+  // The drive master's request_estop() from another thread, here a loop reading the
+  // board's e-stop input back to back: the master acts within one I/O slice.
   hil::PowerEmulator emu(hil::PowerEmulator::Link::kTcp, {}, {});
   auto board = open_board(emu.uri());
   std::atomic<Nanos> pressed_at{0};
@@ -209,6 +253,29 @@ TEST(PowerBoard, EstopDisablesTheDrivesWithinOneControlPeriod) {
 
 namespace cairn {
 namespace {
+
+TEST(PowerBoard, SafetyInputsMustBeDistinctAndReadableInOneRequest) {
+  modbus::RegisterMap m;
+  std::string err;
+  EXPECT_TRUE(modbus::validate_register_map(m, &err)) << err;
+  m.reset_input = m.estop;
+  EXPECT_FALSE(modbus::validate_register_map(m, &err));
+  EXPECT_NE(err.find("the e-stop and reset inputs are both discrete input 0"), std::string::npos) << err;
+  m.reset_input = m.estop + modbus::kMaxSafetyInputSpan;
+  EXPECT_FALSE(modbus::validate_register_map(m, &err));
+  EXPECT_NE(err.find("must lie within 16 bits"), std::string::npos) << err;
+  m.reset_input = m.estop + modbus::kMaxSafetyInputSpan - 1;
+  EXPECT_TRUE(modbus::validate_register_map(m, &err)) << err;
+  // Read from the board at the far end of the span.
+  hil::PowerEmulator emu(hil::PowerEmulator::Link::kTcp, m, {});
+  auto board = modbus::PowerBoard::open(emu.uri(), m, 100 * kNanosPerMilli, &err);
+  ASSERT_TRUE(board) << err;
+  emu.press_reset(true);
+  modbus::SafetyInputBits bits;
+  ASSERT_TRUE(board->read_safety_inputs(&bits));
+  EXPECT_TRUE(bits.reset);
+  EXPECT_FALSE(bits.estop);
+}
 
 TEST(PowerBoard, RegisterMapFromConfig) {
   auto doc = ConfigDocument::parse("[power]\nslave = 3\nvoltage_register = 10\ncurrent_register = 11\nsoc_register = 12\n"

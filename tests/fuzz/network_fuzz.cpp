@@ -104,6 +104,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         (void)dds::from_dds(d, &m);
         break;
       }
+      case 5: {
+        cairn_SafetyReset d;
+        p = fill(&d, p, end);
+        msg::SafetyReset m;
+        (void)dds::from_dds(d, &m);
+        break;
+      }
       default: {  // what the node publishes: corrections and the landmark map
         msg::PoseCorrection c;
         (void)fusion.correction(robot, 0, &c);

@@ -98,6 +98,8 @@ void SimRobot::tick(Nanos now, firmware::RobotOutputs& out) {
     w.right = static_cast<std::int32_t>(std::lround(encoder_right_));
     w.enabled = true;
     w.stamp = now;
+    w.feedback_stamp = now;
+    w.pass = now;
     core_.on_wheels(w);
   }
   while (!in_flight_.empty() && in_flight_.front().deliver <= now) {

@@ -1,0 +1,155 @@
+// The safety supervisor's e-stop latch and staleness bounds, on simulated time (the
+// subject is logic: every time arrives with the inputs). The threaded paths (the e-stop
+// fast path, torque off on the CAN bus, motor power through the board) are measured in
+// executive_hil_test.
+#include "firmware/executive/safety.hpp"
+
+#include <gtest/gtest.h>
+
+#include "common/clock.hpp"
+
+namespace cairn::firmware {
+namespace {
+
+constexpr Nanos kPeriod = 10 * kNanosPerMilli;
+constexpr double kDt = 0.01;
+
+// A healthy robot on simulated time: every input fresh each cycle unless a test says otherwise.
+struct Robot {
+  SimClock clock{kNanosPerSecond};
+  SafetySupervisor safety{SafetyLimits{}};
+  bool estop = false, power_ok = true, feedback_ok = true, can_ok = true, enabled = true;
+  Nanos last_power = -1, last_feedback = -1, last_can = -1;
+  double v = 0, w = 0;
+
+  StopReason cycle(bool reset = false) {
+    clock.advance(kPeriod);
+    const Nanos now = clock.now();
+    if (power_ok) last_power = now;
+    if (feedback_ok) last_feedback = now;
+    if (can_ok) last_can = now;
+    SafetyInputs in;
+    in.now = now;
+    in.estop = estop;
+    in.drives_enabled = enabled;
+    in.last_link = in.last_scan = in.last_command = now;
+    in.last_power = last_power;
+    in.last_feedback = last_feedback;
+    in.last_can_pass = last_can;
+    in.reset = reset;
+    in.v = 0.5;
+    in.w = 0.0;
+    return safety.evaluate(in, kDt, &v, &w);
+  }
+  // Runs until moving (or gives up): the ramp takes a few cycles.
+  bool moves_within(int cycles) {
+    for (int i = 0; i < cycles; ++i) {
+      if (cycle() == StopReason::kNone && v > 0) return true;
+    }
+    return false;
+  }
+  // Cycles until the reason is not kNone; returns the simulated time that took (-1: never).
+  Nanos time_to_stop(Nanos limit) {
+    const Nanos t0 = clock.now();
+    while (clock.now() - t0 <= limit) {
+      if (cycle() != StopReason::kNone) return clock.now() - t0;
+    }
+    return -1;
+  }
+};
+
+TEST(SafetyLatch, ReleasingTheEstopDoesNotRestartOnlyAResetDoes) {
+  Robot r;
+  ASSERT_TRUE(r.moves_within(5));
+  r.estop = true;
+  EXPECT_EQ(r.cycle(), StopReason::kEstop);
+  EXPECT_EQ(r.v, 0.0);
+  EXPECT_TRUE(r.safety.latched());
+  EXPECT_EQ(r.safety.latch_cause(), LatchCause::kEstop);
+  // A reset while the e-stop is still pressed is refused and forgotten.
+  EXPECT_EQ(r.cycle(true), StopReason::kEstop);
+  EXPECT_EQ(r.safety.resets_refused(), 1u);
+  r.estop = false;
+  // Released: stopped, for as long as nobody resets (an hour of simulated time).
+  for (int i = 0; i < 360000; ++i) {
+    ASSERT_EQ(r.cycle(), StopReason::kResetRequired) << "cycle " << i;
+    ASSERT_EQ(r.v, 0.0);
+  }
+  EXPECT_TRUE(r.safety.latched());
+  EXPECT_EQ(r.safety.resets_accepted(), 0u);  // the refused reset was not remembered
+  // The reset: accepted once, then the robot may move (ramped).
+  EXPECT_EQ(r.cycle(true), StopReason::kNone);
+  EXPECT_TRUE(r.safety.reset_accepted());
+  EXPECT_FALSE(r.safety.latched());
+  EXPECT_EQ(r.safety.resets_accepted(), 1u);
+  EXPECT_TRUE(r.moves_within(3));
+  EXPECT_FALSE(r.safety.reset_accepted());  // one cycle only
+  // A reset when nothing is latched does nothing.
+  r.cycle(true);
+  EXPECT_EQ(r.safety.resets_accepted(), 1u);
+  EXPECT_EQ(r.safety.resets_refused(), 1u);
+}
+
+TEST(SafetyLatch, AStaleEstopInputStopsWithinItsBoundAndLatches) {
+  Robot r;
+  ASSERT_TRUE(r.moves_within(5));
+  r.power_ok = false;  // the board stops answering: the last good read is now
+  const Nanos t = r.time_to_stop(kNanosPerSecond);
+  // Stale once older than power_timeout (50 ms); the check runs each 10 ms cycle.
+  EXPECT_GT(t, SafetyLimits{}.power_timeout);
+  EXPECT_LE(t, SafetyLimits{}.power_timeout + kPeriod);
+  EXPECT_EQ(r.safety.reason(), StopReason::kPowerLost);
+  EXPECT_TRUE(r.safety.latched());
+  EXPECT_EQ(r.safety.latch_cause(), LatchCause::kEstopInputLost);
+  EXPECT_EQ(r.cycle(true), StopReason::kPowerLost);  // a reset while it is silent: refused
+  r.power_ok = true;                                   // back, e-stop released
+  for (int i = 0; i < 100; ++i) ASSERT_EQ(r.cycle(), StopReason::kResetRequired);
+  EXPECT_EQ(r.cycle(true), StopReason::kNone);
+  EXPECT_TRUE(r.moves_within(3));
+}
+
+TEST(SafetyLatch, NoInputYetAtBootStopsButDoesNotLatch) {
+  Robot r;
+  r.power_ok = false;  // never heard
+  EXPECT_EQ(r.cycle(), StopReason::kPowerLost);
+  EXPECT_FALSE(r.safety.latched());
+  r.power_ok = true;
+  EXPECT_TRUE(r.moves_within(5));
+}
+
+TEST(SafetyLatch, StaleWheelFeedbackStopsWithinItsBoundAndRecoversWithoutAReset) {
+  Robot r;
+  ASSERT_TRUE(r.moves_within(5));
+  r.feedback_ok = false;  // no TPDO from a drive, the CAN thread still cycling
+  const Nanos t = r.time_to_stop(kNanosPerSecond);
+  EXPECT_GT(t, SafetyLimits{}.feedback_timeout);
+  EXPECT_LE(t, SafetyLimits{}.feedback_timeout + kPeriod);
+  EXPECT_EQ(r.safety.reason(), StopReason::kFeedbackStale);
+  EXPECT_FALSE(r.safety.latched());  // the CAN thread can still command zero
+  r.feedback_ok = true;
+  EXPECT_TRUE(r.moves_within(5));
+  // Drives not enabled (booting): no TPDOs are expected, not a feedback stop.
+  r.feedback_ok = false;
+  r.enabled = false;
+  for (int i = 0; i < 20; ++i) ASSERT_EQ(r.cycle(), StopReason::kDrivesNotReady);
+}
+
+TEST(SafetyLatch, AStalledCanThreadStopsWithinItsBoundLatchesAndNeedsAReset) {
+  Robot r;
+  ASSERT_TRUE(r.moves_within(5));
+  r.can_ok = false;  // the CAN thread hangs: no pass, no feedback
+  r.feedback_ok = false;
+  const Nanos t = r.time_to_stop(kNanosPerSecond);
+  EXPECT_GT(t, SafetyLimits{}.feedback_timeout);
+  EXPECT_LE(t, SafetyLimits{}.feedback_timeout + kPeriod);
+  EXPECT_EQ(r.safety.reason(), StopReason::kFeedbackStale);
+  EXPECT_TRUE(r.safety.latched());
+  EXPECT_EQ(r.safety.latch_cause(), LatchCause::kCanStalled);
+  r.can_ok = r.feedback_ok = true;
+  for (int i = 0; i < 100; ++i) ASSERT_EQ(r.cycle(), StopReason::kResetRequired);
+  EXPECT_EQ(r.cycle(true), StopReason::kNone);
+  EXPECT_TRUE(r.moves_within(3));
+}
+
+}  // namespace
+}  // namespace cairn::firmware
