@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
+#include <map>
+#include <sstream>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -120,6 +122,108 @@ void write_map_server(const ClassGrid& map, const std::string& stem) {
         << "free_thresh: " << kYamlFreeThresh << "\n";
     if (!out) throw std::runtime_error(yaml + ": write failed");
   }
+}
+
+namespace {
+
+std::string trim(std::string s) {
+  const auto a = s.find_first_not_of(" \t\r\"'"), b = s.find_last_not_of(" \t\r\"'");
+  return a == std::string::npos ? std::string() : s.substr(a, b - a + 1);
+}
+
+}  // namespace
+
+ClassGrid read_map_server(const std::string& yaml_path) {
+  std::ifstream in(yaml_path);
+  if (!in) throw std::runtime_error(yaml_path + ": cannot open");
+  std::map<std::string, std::string> kv;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (const auto h = line.find('#'); h != std::string::npos) line.resize(h);
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    kv[trim(line.substr(0, colon))] = trim(line.substr(colon + 1));
+  }
+  auto need = [&](const char* key) -> const std::string& {
+    const auto it = kv.find(key);
+    if (it == kv.end()) throw std::runtime_error(yaml_path + ": missing key '" + key + "'");
+    return it->second;
+  };
+  auto number = [&](const char* key, const std::string& text) {
+    try {
+      std::size_t used = 0;
+      const double v = std::stod(text, &used);
+      if (!std::isfinite(v)) throw std::invalid_argument("not finite");
+      return v;
+    } catch (const std::exception&) {
+      throw std::runtime_error(yaml_path + ": '" + key + "' is not a number: " + text);
+    }
+  };
+  ClassGrid g;
+  g.geometry.resolution = number("resolution", need("resolution"));
+  if (!(g.geometry.resolution > 0)) throw std::runtime_error(yaml_path + ": resolution must be positive");
+  {
+    std::string o = need("origin");
+    for (char& c : o)
+      if (c == '[' || c == ']' || c == ',') c = ' ';
+    std::istringstream os(o);
+    std::vector<double> v;
+    std::string tok;
+    while (os >> tok) v.push_back(number("origin", tok));
+    if (v.size() != 3) throw std::runtime_error(yaml_path + ": origin must be [x, y, yaw]");
+    if (v[2] != 0.0) throw std::runtime_error(yaml_path + ": a rotated origin (yaw != 0) is not supported");
+    g.geometry.origin_x = v[0];
+    g.geometry.origin_y = v[1];
+  }
+  const bool negate = kv.count("negate") && number("negate", kv["negate"]) != 0.0;
+  const double occ_th = number("occupied_thresh", need("occupied_thresh"));
+  const double free_th = number("free_thresh", need("free_thresh"));
+  if (kv.count("mode") && kv["mode"] != "trinary")
+    throw std::runtime_error(yaml_path + ": mode '" + kv["mode"] + "' is not supported (trinary only)");
+  std::string image = need("image");
+  if (image.empty()) throw std::runtime_error(yaml_path + ": empty image");
+  if (image[0] != '/') {
+    const auto slash = yaml_path.find_last_of('/');
+    if (slash != std::string::npos) image = yaml_path.substr(0, slash + 1) + image;
+  }
+  std::ifstream pin(image, std::ios::binary);
+  if (!pin) throw std::runtime_error(image + ": cannot open (named by " + yaml_path + ")");
+  std::string magic;
+  pin >> magic;
+  if (magic != "P5") throw std::runtime_error(image + ": not a binary PGM (P5)");
+  auto next_int = [&]() {
+    while (true) {
+      const int c = pin.peek();
+      if (c == '#') {
+        std::string comment;
+        std::getline(pin, comment);
+      } else if (c != EOF && std::isspace(c)) {
+        pin.get();
+      } else {
+        break;
+      }
+    }
+    long v = -1;
+    if (!(pin >> v) || v <= 0 || v > 1000000) throw std::runtime_error(image + ": bad PGM header");
+    return static_cast<int>(v);
+  };
+  g.geometry.width = next_int();
+  g.geometry.height = next_int();
+  if (next_int() != 255) throw std::runtime_error(image + ": maxval must be 255");
+  pin.get();
+  std::vector<char> raster(g.geometry.cells());
+  pin.read(raster.data(), static_cast<std::streamsize>(raster.size()));
+  if (pin.gcount() != static_cast<std::streamsize>(raster.size())) throw std::runtime_error(image + ": raster too short");
+  g.cells.resize(g.geometry.cells());
+  for (int r = 0; r < g.geometry.height; ++r) {
+    for (int c = 0; c < g.geometry.width; ++c) {
+      const double v = static_cast<unsigned char>(raster[static_cast<std::size_t>(r) * static_cast<std::size_t>(g.geometry.width) +
+                                                        static_cast<std::size_t>(c)]);
+      const double occ = negate ? v / 255.0 : (255.0 - v) / 255.0;
+      g.at(c, g.geometry.height - 1 - r) = occ > occ_th ? Cell::kObstacle : occ < free_th ? Cell::kClear : Cell::kUnknown;
+    }
+  }
+  return g;
 }
 
 void write_png(const ClassGrid& map, const std::vector<Trajectory>& trajectories, const std::vector<msg::Landmark>& landmarks,

@@ -46,6 +46,13 @@ void write_png(const ClassGrid& map, const std::vector<Trajectory>& trajectories
 ///  "ellipse_3sigma": {"major_m", "minor_m", "angle_rad"}}]}.
 void write_landmarks_json(const std::vector<msg::Landmark>& landmarks, const std::string& path);
 
+/// Reads a map_server map (YAML + the PGM it names, relative to the YAML's folder) the
+/// way map_server's loader does: occ = (255 - v) / 255 (v / 255 with negate), occ >
+/// occupied_thresh -> obstacle, occ < free_thresh -> clear, else unknown; the image's
+/// bottom row is the map's row 0. Binary PGM (P5, maxval 255) only; origin yaw must be 0.
+/// Throws std::runtime_error naming the file and the problem.
+ClassGrid read_map_server(const std::string& yaml_path);
+
 /// Semi-axes (major >= minor) and the major axis' angle of the nsigma ellipse of a 2x2
 /// covariance (a non-finite or non-positive-semidefinite covariance gives zeros).
 struct Ellipse {

@@ -146,6 +146,24 @@ TEST(MapExport, PgmAndYamlLoadAsMapServerLoadsThem) {
   fs::remove_all(dir);
 }
 
+TEST(MapExport, ReadMapServerRoundTripsAndRejectsBadFiles) {
+  const fs::path dir = temp_dir("read");
+  const ClassGrid map = pattern(9, 4);
+  write_map_server(map, (dir / "m").string());
+  const ClassGrid back = read_map_server((dir / "m.yaml").string());
+  EXPECT_EQ(back.geometry.width, 9);
+  EXPECT_EQ(back.geometry.height, 4);
+  EXPECT_NEAR(back.geometry.origin_x, -1.2, 1e-6);
+  EXPECT_NEAR(back.geometry.origin_y, 3.45, 1e-6);
+  EXPECT_DOUBLE_EQ(back.geometry.resolution, 0.15);
+  EXPECT_EQ(back.cells, map.cells);
+  std::ofstream(dir / "bad.yaml") << "image: missing.pgm\nresolution: 0.1\norigin: [0, 0, 0]\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
+  EXPECT_THROW(read_map_server((dir / "bad.yaml").string()), std::runtime_error);
+  std::ofstream(dir / "nores.yaml") << "image: m.pgm\norigin: [0, 0, 0]\n";
+  EXPECT_THROW(read_map_server((dir / "nores.yaml").string()), std::runtime_error);
+  fs::remove_all(dir);
+}
+
 TEST(MapExport, WritingToAMissingFolderThrowsNamingTheFile) {
   try {
     write_map_server(pattern(2, 2), "/nonexistent-cairn-dir/map");
