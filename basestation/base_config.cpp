@@ -46,6 +46,10 @@ BaseConfig load_base_config(const std::string& path) {
       c.fusion.robots[id] = p;
     }
   }
+  if (const auto m = root.optional_section("mapper")) {
+    c.mapper_enabled = m->boolean_or("enabled", true);
+    c.mapper = mapper::mapper_config_from(*m);
+  }
   if (const auto u = root.optional_section("unknown_robot")) c.fusion.unknown.sigma = read_sigma(*u, "initial_sigma", c.fusion.unknown.sigma);
   doc.finish();
   return c;

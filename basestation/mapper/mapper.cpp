@@ -89,7 +89,7 @@ MapperConfig mapper_config_from(const ConfigSection& s) {
   try {
     validate(c);
   } catch (const std::invalid_argument& e) {
-    s.fail("p_o", e.what());
+    throw ConfigError(std::string(e.what()) + " (in [mapper])");
   }
   return c;
 }

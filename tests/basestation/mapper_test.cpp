@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "common/config.hpp"
+
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -262,6 +264,31 @@ TEST(Mapper, InvalidConfigurationIsRefusedWithTheParameterNamed) {
   c = small_config();
   c.resolution_m = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(Mapper{c}, std::invalid_argument);
+}
+
+TEST(MapperConfig, ReadsTheMapperSectionStrictly) {
+  const auto doc = ConfigDocument::parse(
+      "[mapper]\nresolution_m = 0.1\norigin = [-5.0, -2.0]\nsize_m = [20.0, 10.0]\np_o = 0.7\np_c = 0.2\n"
+      "insert_every = 3\nstore_mib = 1.5\nrerender_shift_m = 0.05\nmax_range_m = 8.0\n",
+      "test.toml");
+  const MapperConfig c = mapper_config_from(doc.root().section("mapper"));
+  doc.finish();
+  EXPECT_DOUBLE_EQ(c.resolution_m, 0.1);
+  EXPECT_DOUBLE_EQ(c.origin_x, -5.0);
+  EXPECT_DOUBLE_EQ(c.height_m, 10.0);
+  EXPECT_DOUBLE_EQ(c.p_o, 0.7);
+  EXPECT_EQ(c.insert_every, 3);
+  EXPECT_EQ(c.store_bytes, static_cast<std::size_t>(1.5 * (1 << 20)));
+  const Mapper m(c);
+  EXPECT_EQ(m.geometry().width, 200);
+  EXPECT_EQ(m.geometry().height, 100);
+  // p_c above p_o: refused, naming the parameters.
+  const auto bad = ConfigDocument::parse("[mapper]\np_o = 0.3\np_c = 0.4\n", "bad.toml");
+  EXPECT_THROW(mapper_config_from(bad.root().section("mapper")), ConfigError);
+  // A misspelled key is an error at finish().
+  const auto typo = ConfigDocument::parse("[mapper]\nresolution = 0.1\n", "typo.toml");
+  mapper_config_from(typo.root().section("mapper"));
+  EXPECT_THROW(typo.finish(), ConfigError);
 }
 
 }  // namespace
