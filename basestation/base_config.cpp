@@ -60,6 +60,10 @@ BaseConfig from_document(const ConfigDocument& doc) {
       c.fusion.robots[id] = p;
     }
   }
+  if (const auto m = root.optional_section("mapper")) {
+    c.mapper_enabled = m->boolean_or("enabled", true);
+    c.mapper = mapper::mapper_config_from(*m);
+  }
   if (const auto f = root.optional_section("fusion")) c.fusion.restart_sigma = read_sigma(*f, "restart_sigma", c.fusion.restart_sigma);
   if (const auto u = root.optional_section("unknown_robot")) {
     c.fusion.unknown.sigma = read_sigma(*u, "initial_sigma", c.fusion.unknown.sigma);

@@ -5,6 +5,7 @@
 #include <string_view>
 
 #include "basestation/fusion.hpp"
+#include "basestation/mapper/mapper.hpp"
 #include "common/clock.hpp"
 #include "common/dds/profile.hpp"
 
@@ -24,6 +25,10 @@ struct BaseConfig {
   Nanos map_period = kNanosPerSecond;
   int history_depth = 512;  // per robot: what a restarted base can still fetch from the robots
   FusionConfig fusion;      // [[robot]] priors, [unknown_robot]
+
+  // [mapper]: the central occupancy grid (docs/mapper.md).
+  bool mapper_enabled = true;
+  mapper::MapperConfig mapper;
 };
 
 BaseConfig load_base_config(const std::string& path);

@@ -26,9 +26,12 @@ if(CAIRN_HOST_ONLY_PARTS)
   if(TARGET cairn-eval)  # tools/eval: built with the host-only parts
     install(TARGETS cairn-eval RUNTIME DESTINATION bin COMPONENT base)
   endif()
+  if(TARGET cairn-map-quality)  # tools/map_quality: a map against a HIL world's ground truth
+    install(TARGETS cairn-map-quality RUNTIME DESTINATION bin COMPONENT base)
+  endif()
   install(FILES config/base.toml DESTINATION /etc/cairn COMPONENT base)
   install(FILES ${cairn_pkg}/base/cairn-base.service DESTINATION /lib/systemd/system COMPONENT base)
-  install(FILES docs/ccml.md docs/config.md docs/dds.md DESTINATION share/doc/cairn-base COMPONENT base)
+  install(FILES docs/ccml.md docs/mapper.md docs/config.md docs/dds.md DESTINATION share/doc/cairn-base COMPONENT base)
 
   install(TARGETS cairn-hil RUNTIME DESTINATION bin COMPONENT hil)
   install(DIRECTORY hil/worlds/ DESTINATION share/cairn/worlds COMPONENT hil FILES_MATCHING PATTERN "*.world")

@@ -52,7 +52,10 @@ if command -v systemd-analyze >/dev/null; then
   done
 fi
 if grep -q CAIRN_HOST_ONLY_PARTS:BOOL=ON "$build/CMakeCache.txt"; then
-  expect cairn-base /usr/bin/cairn-base /usr/bin/cairn-eval /etc/cairn/base.toml /lib/systemd/system/cairn-base.service
+  expect cairn-base /usr/bin/cairn-base /usr/bin/cairn-eval /usr/bin/cairn-map-quality /usr/share/doc/cairn-base/mapper.md \
+    /etc/cairn/base.toml /lib/systemd/system/cairn-base.service
+  base_deb=$(echo "$work"/out/cairn-base_*_"$arch".deb)
+  dpkg-deb -f "$base_deb" Depends | grep -q libpng16 || fail "cairn-base does not depend on libpng (the map PNG export)"
   expect cairn-hil /usr/bin/cairn-hil /usr/share/cairn/worlds/office.world /usr/share/cairn/hil/robot-hil.toml
 fi
 

@@ -1,0 +1,63 @@
+// The central map's exports (docs/mapper.md, "Export formats"):
+//  - PGM + YAML exactly as ROS map_server loads them and map_saver writes them
+//    (trinary: obstacle 0, clear 254, unknown 205; rows from the top (max y) down;
+//    origin = lower-left corner of the lower-left pixel; negate 0; occupied_thresh 0.65;
+//    free_thresh 0.196 — the thresholds that decode those three values back into the
+//    three classes, whatever p_o / p_c classified them);
+//  - a PNG (libpng) of the map with every robot's trajectory and every landmark with
+//    its 3σ ellipse;
+//  - the landmark map as JSON.
+// Every writer throws std::runtime_error naming the file on an I/O error.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "basestation/mapper/grid.hpp"
+#include "common/messages.hpp"
+
+namespace cairn::mapper {
+
+/// map_saver's pixel values (trinary mode).
+constexpr std::uint8_t kPgmObstacle = 0, kPgmClear = 254, kPgmUnknown = 205;
+constexpr double kYamlOccupiedThresh = 0.65, kYamlFreeThresh = 0.196;
+
+/// Writes `stem`.pgm and `stem`.yaml; the YAML's `image` is the PGM's file name
+/// (map_server resolves it relative to the YAML's folder).
+void write_map_server(const ClassGrid& map, const std::string& stem);
+
+struct Trajectory {
+  std::uint16_t robot = 0;
+  std::vector<Vec2> points;  // global frame, in time order
+};
+
+struct PngOptions {
+  int pixels_per_cell = 4;
+  double nsigma = 3.0;  // landmark ellipses
+};
+
+/// The map (obstacle black, clear white, unknown grey), trajectories (one colour per
+/// robot, start marked by a square), landmarks (a cross and the nsigma ellipse).
+void write_png(const ClassGrid& map, const std::vector<Trajectory>& trajectories, const std::vector<msg::Landmark>& landmarks,
+               const std::string& path, const PngOptions& options = {});
+
+/// {"frame": "global", "count": N, "landmarks": [{"id", "x", "y", "cov": [xx, xy, yx, yy],
+///  "ellipse_3sigma": {"major_m", "minor_m", "angle_rad"}}]}.
+void write_landmarks_json(const std::vector<msg::Landmark>& landmarks, const std::string& path);
+
+/// Reads a map_server map (YAML + the PGM it names, relative to the YAML's folder) the
+/// way map_server's loader does: occ = (255 - v) / 255 (v / 255 with negate), occ >
+/// occupied_thresh -> obstacle, occ < free_thresh -> clear, else unknown; the image's
+/// bottom row is the map's row 0. Binary PGM (P5, maxval 255) only; origin yaw must be 0.
+/// Throws std::runtime_error naming the file and the problem.
+ClassGrid read_map_server(const std::string& yaml_path);
+
+/// Semi-axes (major >= minor) and the major axis' angle of the nsigma ellipse of a 2x2
+/// covariance (a non-finite or non-positive-semidefinite covariance gives zeros).
+struct Ellipse {
+  double major = 0, minor = 0, angle = 0;
+};
+Ellipse covariance_ellipse(const msg::Cov2& cov, double nsigma);
+
+}  // namespace cairn::mapper

@@ -1,0 +1,138 @@
+// Map quality on synthetic maps whose answers are known: a perfect map, a map shifted
+// by two cells, half a map, a map that claims clear inside furniture; and the command.
+#include "tools/map_quality/map_quality.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "basestation/mapper/export.hpp"
+#include "tests/support/subprocess.hpp"
+
+namespace cairn::tools {
+namespace {
+
+using mapper::Cell;
+using mapper::ClassGrid;
+using mapper::GridGeometry;
+
+// Walls on cell centres (res 0.1, cells centred on x.x5): a room 4.9 m x 2.9 m, a 0.5 m
+// box of furniture, and a closed cupboard that cannot be reached.
+const char* kWorld = R"(bounds 0 0 6 4
+box 0.55 0.55 4.9 2.9
+box 2.05 1.45 0.5 0.5
+box 4.55 2.55 0.6 0.6
+start 1 1.0 1.0 0
+)";
+
+GridGeometry geometry() { return {0.1, 0.0, 0.0, 60, 40}; }
+
+ClassGrid shifted(const ClassGrid& m, int di, int dj) {
+  ClassGrid s = m;
+  std::fill(s.cells.begin(), s.cells.end(), Cell::kUnknown);
+  for (int j = 0; j < m.geometry.height; ++j)
+    for (int i = 0; i < m.geometry.width; ++i)
+      if (m.geometry.contains(i + di, j + dj)) s.at(i + di, j + dj) = m.at(i, j);
+  return s;
+}
+
+TEST(MapQuality, RasterisesWallsAndFloodFillsTheReachableFreeSpace) {
+  const hil::World w = hil::World::parse(kWorld, "synthetic");
+  const TruthGrid t = rasterise(w, geometry(), {1.0, 1.0});
+  EXPECT_EQ(t.at(5, 10), Truth::kWall);   // x = 0.55 wall, on the centre of column 5
+  EXPECT_EQ(t.at(4, 10), Truth::kOther);  // outside the room
+  EXPECT_EQ(t.at(6, 10), Truth::kFree);
+  EXPECT_EQ(t.at(22, 17), Truth::kOther);  // inside the furniture
+  EXPECT_EQ(t.at(48, 28), Truth::kOther);  // inside the closed cupboard
+  // Room interior 48 x 28 cells, minus the furniture (6x6 incl. its walls) and the cupboard's
+  // cells inside the room (column 45..51 x row 25..31 clipped to the interior 6..53 x 6..33).
+  EXPECT_EQ(t.at(45, 25), Truth::kWall);
+  EXPECT_THROW(rasterise(w, geometry(), {0.55, 1.0}), std::invalid_argument);  // start in a wall
+  EXPECT_THROW(rasterise(w, geometry(), {9.0, 1.0}), std::invalid_argument);   // outside the map
+}
+
+TEST(MapQuality, PerfectMapScoresPerfectly) {
+  const hil::World w = hil::World::parse(kWorld, "synthetic");
+  const ClassGrid perfect = truth_as_map(rasterise(w, geometry(), {1.0, 1.0}));
+  const MapQuality q = evaluate(perfect, w, {1.0, 1.0});
+  EXPECT_DOUBLE_EQ(q.coverage, 1.0);
+  EXPECT_DOUBLE_EQ(q.agreement, 1.0);
+  EXPECT_EQ(q.false_obstacles, 0u);
+  EXPECT_EQ(q.false_free, 0u);
+  EXPECT_LE(q.wall_offset_max_m, 0.1 * std::sqrt(0.5) + 1e-9);  // a cell that touches a wall
+  EXPECT_LT(q.wall_offset_mean_m, 0.05);
+}
+
+TEST(MapQuality, MapShiftedByTwoCellsShowsTwoCellsOfWallOffsetAndLowerAgreement) {
+  const hil::World w = hil::World::parse(kWorld, "synthetic");
+  const ClassGrid perfect = truth_as_map(rasterise(w, geometry(), {1.0, 1.0}));
+  const MapQuality good = evaluate(perfect, w, {1.0, 1.0});
+  const MapQuality bad = evaluate(shifted(perfect, 2, 2), w, {1.0, 1.0});
+  EXPECT_GE(bad.wall_offset_max_cells(), 2.0 - 1e-9);
+  EXPECT_GE(bad.wall_offset_mean_cells(), 1.5);
+  EXPECT_LT(bad.agreement, good.agreement - 0.05);
+  EXPECT_GT(bad.false_obstacles, 100u);
+  EXPECT_GT(bad.false_free, 100u);
+  // One cell along x only: the offset of the vertical walls is one cell; horizontal walls stay.
+  const MapQuality one = evaluate(shifted(perfect, 1, 0), w, {1.0, 1.0});
+  EXPECT_NEAR(one.wall_offset_max_cells(), 1.0, 1e-9);
+  EXPECT_GT(one.agreement, bad.agreement);
+}
+
+TEST(MapQuality, CoverageCountsOnlyKnownFreeCellsAndFalseFreeInsideFurniture) {
+  const hil::World w = hil::World::parse(kWorld, "synthetic");
+  const TruthGrid t = rasterise(w, geometry(), {1.0, 1.0});
+  ClassGrid half = truth_as_map(t);
+  for (int j = 0; j < 40; ++j)
+    for (int i = 30; i < 60; ++i) half.at(i, j) = Cell::kUnknown;  // right half never seen
+  const MapQuality q = evaluate(half, w, {1.0, 1.0});
+  EXPECT_GT(q.coverage, 0.4);
+  EXPECT_LT(q.coverage, 0.6);
+  EXPECT_DOUBLE_EQ(q.agreement, 1.0);  // what is known is right
+  ClassGrid inside = truth_as_map(t);
+  inside.at(22, 17) = Cell::kClear;  // inside the furniture
+  inside.at(10, 10) = Cell::kObstacle;  // in the open
+  const MapQuality f = evaluate(inside, w, {1.0, 1.0});
+  EXPECT_EQ(f.false_free, 1u);
+  EXPECT_EQ(f.false_obstacles, 1u);
+  EXPECT_NEAR(f.wall_offset_max_m, 1.05 - 0.55, 1e-9);  // nearest: the left wall x = 0.55
+}
+
+TEST(MapQuality, CommandReadsAnExportedMapAndPrintsJson) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("cairn_map_quality_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::ofstream(dir / "room.world") << kWorld;
+  const hil::World w = hil::World::parse(kWorld, "synthetic");
+  mapper::write_map_server(shifted(truth_as_map(rasterise(w, geometry(), {1.0, 1.0})), 2, 2), (dir / "map").string());
+  {
+    cairn::testing::Subprocess p({CAIRN_MAP_QUALITY_BIN, "--map", (dir / "map.yaml").string(), "--world",
+                                  (dir / "room.world").string(), "--json", "--truth", (dir / "truth").string()});
+    ASSERT_EQ(p.wait(std::chrono::seconds(30)), 0) << p.output();
+    const auto j = nlohmann::json::parse(p.output());
+    EXPECT_GE(j.at("wall_offset_max_cells").get<double>(), 2.0 - 1e-6);
+    EXPECT_LT(j.at("agreement").get<double>(), 0.95);
+    for (const char* k : {"coverage", "agreement", "false_obstacles", "false_free", "wall_offset_mean_m", "wall_offset_max_m"})
+      EXPECT_TRUE(j.contains(k)) << k;
+  }
+  EXPECT_TRUE(fs::exists(dir / "truth.pgm"));
+  {
+    cairn::testing::Subprocess p({CAIRN_MAP_QUALITY_BIN, "--map", (dir / "map.yaml").string(), "--world",
+                                  (dir / "room.world").string(), "--start", "0.55", "1.0"});
+    EXPECT_EQ(p.wait(std::chrono::seconds(30)), 2);
+    EXPECT_NE(p.output().find("wall cell"), std::string::npos) << p.output();
+  }
+  {
+    cairn::testing::Subprocess p({CAIRN_MAP_QUALITY_BIN, "--map", (dir / "map.yaml").string(), "--world",
+                                  (dir / "room.world").string()});
+    ASSERT_EQ(p.wait(std::chrono::seconds(30)), 0) << p.output();
+    EXPECT_NE(p.output().find("agreement"), std::string::npos);
+  }
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace cairn::tools

@@ -1,0 +1,38 @@
+// cairn-map-quality: compares a map (map_server PGM + YAML, as cairn-base exports it)
+// with a HIL world file's ground truth rasterised on the map's grid (docs/mapper.md).
+//
+//   cairn-map-quality --map map.yaml --world hil/worlds/office.world [--start X Y] [--json]
+//                     [--truth STEM]   also write the rasterised truth as STEM.pgm/.yaml
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <exception>
+#include <iostream>
+
+#include "basestation/mapper/export.hpp"
+#include "tools/map_quality/map_quality.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"cairn-map-quality: a map against a HIL world's ground truth (coverage, agreement, false cells, wall offset)"};
+  std::string map_path, world_path, truth_stem;
+  std::vector<double> start;
+  bool json = false;
+  app.add_option("--map", map_path, "map_server YAML (its PGM next to it)")->required();
+  app.add_option("--world", world_path, "HIL world file (hil/worlds/*.world)")->required();
+  app.add_option("--start", start, "flood-fill start X Y (m, world frame); default: robot 1's start")->expected(2);
+  app.add_flag("--json", json, "print JSON instead of text");
+  app.add_option("--truth", truth_stem, "also write the rasterised truth as STEM.pgm + STEM.yaml");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    const cairn::mapper::ClassGrid map = cairn::mapper::read_map_server(map_path);
+    const cairn::hil::World world = cairn::hil::World::load(world_path);
+    const cairn::Vec2 s = start.size() == 2 ? cairn::Vec2(start[0], start[1]) : cairn::tools::default_start(world);
+    const cairn::tools::MapQuality q = cairn::tools::evaluate(map, world, s);
+    if (!truth_stem.empty())
+      cairn::mapper::write_map_server(cairn::tools::truth_as_map(cairn::tools::rasterise(world, map.geometry, s)), truth_stem);
+    std::cout << (json ? cairn::tools::to_json(q) + "\n" : cairn::tools::to_text(q));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "cairn-map-quality: %s\n", e.what());
+    return 2;
+  }
+  return 0;
+}

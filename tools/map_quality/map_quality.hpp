@@ -1,0 +1,61 @@
+// Map quality against a HIL world's ground truth (issue 14 item 7; docs/mapper.md,
+// "Map quality"). The world file is rasterised on the map's own grid:
+//   - wall: a cell that a wall segment or a circle's outline (poles, furniture) touches
+//     (closed cells: a wall on a cell border marks both cells);
+//   - free: a non-wall cell reachable from the start point by a 4-connected flood fill
+//     (the reachable free space);
+//   - other: neither (inside furniture, outside the building).
+// Then, over the map's known cells (obstacle or clear):
+//   coverage        known cells of the free space / free cells
+//   agreement       (obstacle on wall + clear on free) / known cells
+//   false obstacles obstacle on a non-wall cell;  false free: clear on a non-free cell
+//   wall offset     distance from each obstacle cell's centre to the nearest true wall
+//                   (the world's geometry, not its raster): mean, 95th percentile, max.
+#pragma once
+
+#include <string>
+
+#include "basestation/mapper/grid.hpp"
+#include "hil/world/world.hpp"
+
+namespace cairn::tools {
+
+enum class Truth : std::uint8_t { kOther = 0, kFree = 1, kWall = 2 };
+
+struct TruthGrid {
+  mapper::GridGeometry geometry;
+  std::vector<Truth> cells;
+  Truth at(int i, int j) const { return cells[geometry.index(i, j)]; }
+};
+
+/// Throws std::invalid_argument if `start` is outside the grid or in a wall cell.
+TruthGrid rasterise(const hil::World& world, const mapper::GridGeometry& geometry, const Vec2& start);
+
+/// Distance from p to the nearest wall segment or circle outline of the world (robots excluded).
+double distance_to_wall(const hil::World& world, const Vec2& p);
+
+struct MapQuality {
+  double resolution = 0;
+  std::size_t free_cells = 0, wall_cells = 0;  // truth
+  std::size_t known = 0, obstacle = 0, clear = 0;
+  std::size_t known_free = 0;  // known cells in the truth's free space
+  std::size_t agree = 0, false_obstacles = 0, false_free = 0;
+  double coverage = 0, agreement = 0, false_obstacle_rate = 0, false_free_rate = 0;
+  double wall_offset_mean_m = 0, wall_offset_p95_m = 0, wall_offset_max_m = 0;
+  double wall_offset_mean_cells() const { return wall_offset_mean_m / resolution; }
+  double wall_offset_max_cells() const { return wall_offset_max_m / resolution; }
+};
+
+/// Start point by default: robot 1's start in the world, else the centre of its bounds.
+Vec2 default_start(const hil::World& world);
+
+MapQuality evaluate(const mapper::ClassGrid& map, const hil::World& world, const Vec2& start);
+
+std::string to_text(const MapQuality& q);
+std::string to_json(const MapQuality& q);
+
+/// The truth as a map (wall -> obstacle, free -> clear, other -> unknown): what a
+/// perfect mapper would produce.
+mapper::ClassGrid truth_as_map(const TruthGrid& truth);
+
+}  // namespace cairn::tools
