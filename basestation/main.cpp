@@ -3,6 +3,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <cstring>
 
 #include "basestation/base_config.hpp"
 #include "basestation/fleet.hpp"
@@ -16,7 +17,11 @@ using namespace cairn;
 
 namespace {
 
-const char* mode_name(cairn_RobotMode m) {
+// By reference and read as an int: a hostile status can carry any value in the enum field.
+const char* mode_name(const cairn_RobotMode& field) {
+  int m = 0;
+  static_assert(sizeof field == sizeof m);
+  std::memcpy(&m, &field, sizeof m);
   switch (m) {
     case cairn_MODE_BOOTING: return "booting";
     case cairn_MODE_IDLE: return "idle";

@@ -11,6 +11,16 @@ static_assert(cairn_MAX_BEAMS == msg::kMaxBeams && cairn_MAX_FEATURES == msg::kM
 
 namespace {
 
+// The integer in an IDL enum field, whatever a writer put there (C enums are int-sized in
+// the generated types). Loading an out-of-range value *as the enum* is undefined.
+template <typename E>
+int raw_enum(const E& field) {
+  static_assert(sizeof(E) == sizeof(int));
+  int v = 0;
+  std::memcpy(&v, &field, sizeof v);
+  return v;
+}
+
 template <std::size_t N>
 void copy_array(const std::array<double, N>& from, double (&to)[N]) {
   std::copy(from.begin(), from.end(), to);
@@ -118,8 +128,11 @@ bool from_dds(const cairn_FeatureObservations& m, msg::FeatureObservations* out)
   for (std::size_t i = 0; i < out->n_features; ++i) {
     const cairn_Feature& f = m.features[i];
     msg::Feature& o = out->features[i];
-    if (f.kind != cairn_FEATURE_ROBOT && f.kind != cairn_FEATURE_LANDMARK) ok = false;
-    o.kind = f.kind == cairn_FEATURE_ROBOT ? msg::FeatureKind::kRobot : msg::FeatureKind::kLandmark;
+    // A hostile writer can put any value in an enum field: read it as the integer it is
+    // (loading an out-of-range value as the enum type is undefined behaviour).
+    const int kind = raw_enum(f.kind);
+    if (kind != cairn_FEATURE_ROBOT && kind != cairn_FEATURE_LANDMARK) ok = false;
+    o.kind = kind == cairn_FEATURE_ROBOT ? msg::FeatureKind::kRobot : msg::FeatureKind::kLandmark;
     o.marker_id = f.marker_id;
     o.range = f.range;
     o.bearing = f.bearing;
@@ -185,7 +198,7 @@ bool from_dds(const cairn_TaskAssignment& m, msg::TaskAssignment* out) {
   out->seq = m.seq;
   out->task_id = m.task_id;
   out->issued = m.issued_ns;
-  const int kind = static_cast<int>(m.kind);
+  const int kind = raw_enum(m.kind);
   if (kind < 0 || kind > static_cast<int>(msg::TaskKind::kStop)) {
     ok = false;
     out->kind = msg::TaskKind::kStop;  // an unknown command stops rather than moves

@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "tests/support/subprocess.hpp"
+#include "tests/support/timing.hpp"
 
 namespace cairn {
 namespace {
@@ -55,7 +56,9 @@ TEST(BaseRestart, KilledBaseResumesWithoutLosingAnObservation) {
   base = std::make_unique<Subprocess>(std::vector<std::string>{CAIRN_BASE_BIN, "--config", cfg, "--duration", "60"});
   ASSERT_TRUE(base->wait_for_text("snapshot loaded", 5s)) << base->output();
   ASSERT_TRUE(feeder.wait_for_text("feeder: done", 30s)) << feeder.output();
-  std::this_thread::sleep_for(2s);  // let the last messages arrive
+  // Let the last messages arrive (reliable, so they do: this is transport time, longer
+  // in sanitizer builds).
+  std::this_thread::sleep_for(std::chrono::duration<double>(2.0 * testing::timing_slack()));
   base->signal(SIGTERM);
   ASSERT_EQ(base->wait(5s), 0) << base->output();
   const Counts c = parse_final(base->output());
