@@ -62,6 +62,15 @@ TEST(FleetSim, OfficeRobotsAreLocalisedAndPolesMapped) {
   EXPECT_GE(s.landmarks, 8u);
   EXPECT_EQ(s.landmarks_far, 0u);
   EXPECT_LT(s.landmark_rmse_m, 0.10);
+  // The base's central map: every LaserScan placed by the fusion's frame estimate, against
+  // the world's ground truth. A placement 1.1 degrees off gives 90.9 % agreement and a mean
+  // wall offset of 0.86 cell here. (Issue 14's bar, 97 % and every wall within one cell,
+  // is met with true poses, mapper_accuracy_test; through the estimator this run gives
+  // 96.2 %, docs/mapper.md.)
+  EXPECT_EQ(s.map_scans_unplaced, 0u);
+  EXPECT_GT(s.map_scans, 400u);  // 3 robots x 40 s x 37.5 scans/s / every 10th
+  EXPECT_GE(s.map.agreement, 0.95);
+  EXPECT_LE(s.map.wall_offset_mean_cells(), 0.5);
 }
 
 }  // namespace

@@ -13,9 +13,10 @@ namespace cairn::sim {
 struct FleetSim::Outbox : firmware::RobotOutputs {
   struct Item {
     Nanos due = 0;
-    bool is_odometry = false;
+    bool is_odometry = false, is_laser = false;
     msg::OdometryIncrement odometry;
     msg::FeatureObservations features;
+    msg::LaserScan laser;
   };
   Nanos now = 0, latency = 0;
   double loss = 0;
@@ -39,7 +40,13 @@ struct FleetSim::Outbox : firmware::RobotOutputs {
     i.is_odometry = true;
     i.odometry = m;
   }
-  void laser(const msg::LaserScan&) override {}  // no central mapper yet
+  void laser(const msg::LaserScan& m) override {
+    if (lose()) return;
+    Item& i = items.emplace_back();
+    i.due = now + latency;
+    i.is_laser = true;
+    i.laser = m;
+  }
   void features(const msg::FeatureObservations& m) override {
     if (lose()) return;
     Item& i = items.emplace_back();
@@ -75,6 +82,16 @@ FleetSim::FleetSim(const FleetSimConfig& cfg) : cfg_(cfg) {
     fc.robots[static_cast<std::uint16_t>(id)] = prior;
   }
   fusion_ = std::make_unique<base::Fusion>(fc);
+  // The grid covers the world with a margin unless configured otherwise.
+  mapper::MapperConfig mc = cfg.mapper;
+  if (cfg.map_fits_world) {
+    const auto& b = world.bounds();
+    mc.origin_x = b.xmin - 2.0;
+    mc.origin_y = b.ymin - 2.0;
+    mc.width_m = b.xmax - b.xmin + 4.0;
+    mc.height_m = b.ymax - b.ymin + 4.0;
+  }
+  mapper_ = std::make_unique<mapper::Mapper>(mc);
 }
 
 FleetSim::~FleetSim() = default;
@@ -84,7 +101,16 @@ void FleetSim::deliver(Nanos now) {
     while (!box->items.empty() && box->items.front().due <= now) {
       const Outbox::Item& i = box->items.front();
       // Results (refusals included) are counted by the fusion and end in the summary.
-      if (i.is_odometry) {
+      if (i.is_laser) {
+        // The base's central mapper: the scan placed by the fusion's estimate of the
+        // robot's frame; a robot not yet localised has no place for it (counted).
+        msg::PoseCorrection c;
+        if (fusion_->correction(i.laser.robot_id, i.laser.stamp, &c)) {
+          (void)mapper_->add_scan_local(i.laser, c.local_to_global);
+        } else {
+          ++map_scans_unplaced_;
+        }
+      } else if (i.is_odometry) {
         (void)fusion_->on_odometry(i.odometry);
       } else {
         (void)fusion_->on_features(i.features);
@@ -103,6 +129,30 @@ void FleetSim::share_world() {
       if (i != j) worlds_[i]->set_robot(robots_[j]->id(), robots_[j]->truth().translation(), robots_[j]->body_radius());
     }
   }
+}
+
+// Once a simulated second, as the base does on each correction: the stored scans of a
+// robot whose frame the fusion moved are re-rendered where it now puts them.
+void FleetSim::reframe_map() {
+  for (const auto& r : robots_) {
+    msg::PoseCorrection c;
+    if (fusion_->correction(static_cast<std::uint16_t>(r->id()), now_, &c)) {
+      (void)mapper_->on_frame_corrected(static_cast<std::uint16_t>(r->id()), c.local_to_global);
+    }
+  }
+}
+
+std::vector<mapper::Trajectory> FleetSim::estimated_trajectories() const {
+  std::vector<mapper::Trajectory> out;
+  for (const auto& r : robots_) {
+    mapper::Trajectory t;
+    t.robot = static_cast<std::uint16_t>(r->id());
+    for (const RobotSample& x : samples_) {
+      if (x.robot == r->id() && x.has_global) t.points.push_back(x.global.translation());
+    }
+    out.push_back(std::move(t));
+  }
+  return out;
 }
 
 void FleetSim::step_robots() {
@@ -124,6 +174,10 @@ void FleetSim::run(const std::function<void(double)>& progress) {
   auto between_steps = [&]() noexcept {
     if (cfg_.shared_world) share_world();
     deliver(now_);
+    if (now_ >= next_reframe_) {
+      next_reframe_ += kNanosPerSecond;
+      reframe_map();
+    }
     if (now_ >= next_sample) {
       next_sample += cfg_.sample_period;
       for (auto& r : robots_) {
@@ -205,6 +259,9 @@ FleetSummary FleetSim::summary(double wall_seconds) const {
     rs.global_rmse_m = ng ? std::sqrt(sg / static_cast<double>(ng)) : 0;
     s.robots.push_back(rs);
   }
+  s.map = tools::evaluate(mapper_->classified(), *worlds_.front(), tools::default_start(*worlds_.front()));
+  s.map_scans = mapper_->counters().scans_inserted;
+  s.map_scans_unplaced = map_scans_unplaced_;
   const std::vector<Vec2> poles = worlds_.front()->poles();
   s.poles = poles.size();
   double se = 0;

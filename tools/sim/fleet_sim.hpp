@@ -18,6 +18,9 @@
 #include <vector>
 
 #include "basestation/fusion.hpp"
+#include "basestation/mapper/export.hpp"
+#include "basestation/mapper/mapper.hpp"
+#include "tools/map_quality/map_quality.hpp"
 #include "tools/sim/sim_robot.hpp"
 
 namespace cairn::sim {
@@ -33,6 +36,8 @@ struct FleetSimConfig {
   double link_loss = 0.0;                   // fraction of messages lost
   bool shared_world = false;                // robots see and collide with each other
   Nanos sample_period = 100 * kNanosPerMilli;  // ground truth and estimates written at this rate
+  mapper::MapperConfig mapper;                 // the base's central occupancy grid
+  bool map_fits_world = true;                  // grid = the world's bounds + 2 m (else mapper's origin/size)
   firmware::ExecutiveConfig robot;             // every robot's configuration (id set per robot)
   firmware::FollowerConfig follower;
 };
@@ -57,6 +62,8 @@ struct FleetSummary {
   double landmark_rmse_m = 0;   // each landmark to its nearest pole
   std::size_t landmarks_far = 0;  // farther than 0.5 m from any pole
   std::uint64_t messages = 0, messages_lost = 0;
+  tools::MapQuality map;              // the central grid against the world's ground truth
+  std::uint64_t map_scans = 0, map_scans_unplaced = 0;  // LaserScans inserted / not yet placeable
   double sim_seconds = 0, wall_seconds = 0, speed_factor = 0, steps_per_second = 0;
   std::uint64_t steps = 0;
 };
@@ -70,6 +77,10 @@ class FleetSim {
   void run(const std::function<void(double)>& progress = {});
   const std::vector<RobotSample>& samples() const { return samples_; }
   std::vector<msg::Landmark> landmarks() const;
+  /// The base's central map: every robot's LaserScans placed by the fusion's estimates.
+  const mapper::Mapper& map() const { return *mapper_; }
+  /// Each robot's global trajectory as the base estimated it (for the map picture).
+  std::vector<mapper::Trajectory> estimated_trajectories() const;
   /// Figures against the world's ground truth; wall time as measured by the caller.
   FleetSummary summary(double wall_seconds) const;
   const hil::World& world() const { return *worlds_.front(); }
@@ -78,6 +89,7 @@ class FleetSim {
   struct Outbox;
   void deliver(Nanos now);
   void share_world();
+  void reframe_map();
   void step_robots();
 
   FleetSimConfig cfg_;
@@ -85,6 +97,9 @@ class FleetSim {
   std::vector<std::unique_ptr<SimRobot>> robots_;
   std::vector<std::unique_ptr<Outbox>> outboxes_;  // one per robot
   std::unique_ptr<base::Fusion> fusion_;
+  std::unique_ptr<mapper::Mapper> mapper_;
+  std::uint64_t map_scans_unplaced_ = 0;
+  Nanos next_reframe_ = 0;
   std::vector<RobotSample> samples_;
   std::atomic<std::size_t> next_robot_{0};  // the next robot a worker takes in this step
   std::uint64_t steps_ = 0;

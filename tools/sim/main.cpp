@@ -11,6 +11,7 @@
 
 #include "common/program.hpp"
 #include "firmware/robot_config.hpp"
+#include "basestation/mapper/export.hpp"
 #include "tools/sim/fleet_sim.hpp"
 
 using namespace cairn;
@@ -37,6 +38,15 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                       {"landmarks_far_from_any_pole", s.landmarks_far},
                       {"messages", s.messages},
                       {"messages_lost", s.messages_lost},
+                      {"map",
+                       {{"scans_inserted", s.map_scans},
+                        {"scans_unplaced", s.map_scans_unplaced},
+                        {"coverage", s.map.coverage},
+                        {"agreement", s.map.agreement},
+                        {"false_obstacles", s.map.false_obstacles},
+                        {"false_free", s.map.false_free},
+                        {"wall_offset_mean_cells", s.map.wall_offset_mean_cells()},
+                        {"wall_offset_max_cells", s.map.wall_offset_max_cells()}}},
                       {"sim_seconds", s.sim_seconds},
                       {"steps", s.steps}};
   if (with_wall_time) {
@@ -69,6 +79,12 @@ void write_outputs(const std::string& dir, const sim::FleetSim& fleet, const sim
     std::snprintf(line, sizeof line, "%u,%.6f,%.6f,%.9g,%.9g,%.9g\n", l.id, l.x, l.y, l.cov[0], l.cov[1], l.cov[3]);
     lm << line;
   }
+  // The central map: as ROS map_server loads it, as a picture with the base's trajectory
+  // estimates and landmarks (3-sigma ellipses), and the landmark map as JSON.
+  const mapper::ClassGrid grid = fleet.map().classified();
+  mapper::write_map_server(grid, dir + "/map");
+  mapper::write_png(grid, fleet.estimated_trajectories(), fleet.landmarks(), dir + "/map.png");
+  mapper::write_landmarks_json(fleet.landmarks(), dir + "/landmarks.json");
   std::ofstream(dir + "/summary.json") << to_json(s, false).dump(2) << "\n";  // no wall time: repeatable
   if (!truth || !lm) throw std::runtime_error("cannot write the outputs in " + dir);
 }
