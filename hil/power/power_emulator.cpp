@@ -123,14 +123,15 @@ int PowerEmulator::handle(std::uint8_t* query, int len, void* ctx) {
   if (const Nanos d = reply_delay_.exchange(0); d > 0) ::usleep(static_cast<useconds_t>(d / kNanosPerMicro));
   std::lock_guard l(mutex_);
   update_model();
-  const int rc = modbus_reply(static_cast<modbus_t*>(ctx), query, len, as_mapping(mapping_));
-  // Record writes to the relay coil (function 5, write single coil) for the timing tests.
+  // Record writes to the relay coil (function 5, write single coil) for the timing tests,
+  // before the reply: a client that has its reply must find the write recorded.
   const int h = modbus_get_header_length(static_cast<modbus_t*>(ctx));
-  if (rc > 0 && len >= h + 5 && query[h] == 0x05 && ((query[h + 1] << 8) | query[h + 2]) == map_.motor_relay) {
+  if (len >= h + 5 && query[h] == 0x05 && ((query[h + 1] << 8) | query[h + 2]) == map_.motor_relay) {
     const Nanos now = MonotonicClock::instance().now();
     ++relay_writes_;
     (query[h + 3] == 0xFF ? relay_on_at_ : relay_off_at_) = now;
   }
+  const int rc = modbus_reply(static_cast<modbus_t*>(ctx), query, len, as_mapping(mapping_));
   // A write to the relay coil switches motor power, unless the e-stop holds it off.
   relay_ = as_mapping(mapping_)->tab_bits[map_.motor_relay] != 0 && !estop_;
   as_mapping(mapping_)->tab_bits[map_.motor_relay] = relay_ ? 1 : 0;
