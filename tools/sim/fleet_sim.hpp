@@ -38,6 +38,7 @@ struct FleetSimConfig {
   Nanos sample_period = 100 * kNanosPerMilli;  // ground truth and estimates written at this rate
   mapper::MapperConfig mapper;                 // the base's central occupancy grid
   bool map_fits_world = true;                  // grid = the world's bounds + 2 m (else mapper's origin/size)
+  Nanos map_reframe_period = 10 * kNanosPerSecond;  // re-render moved scans this often, and at the end
   firmware::ExecutiveConfig robot;             // every robot's configuration (id set per robot)
   firmware::FollowerConfig follower;
 };
