@@ -129,6 +129,12 @@ void StateStore::close_log() {
 }
 
 void StateStore::suspend(const std::string& why) {
+  // Cut back to the last whole record, so the log on disk stays clean (shrinking works on a
+  // full disk), and before an end record: what follows is not logged, so the log is no
+  // longer complete and a fallback must not replay the next one after it.
+  if (log_fd_ >= 0 && ::ftruncate(log_fd_, static_cast<off_t>(ends_complete_ ? before_end_ : log_size_)) != 0) {
+    fail("cannot cut back " + log_path(generation_), errno);
+  }
   close_log();
   CAIRN_LOG_ERROR("base", "state store: persistence suspended ({}): the fusion goes on in memory, on disk stays the state up to "
                   "the last message logged; the next snapshot retries", why.c_str());
@@ -288,6 +294,7 @@ bool StateStore::open_log(std::uint64_t gen) {
   }
   log_fd_ = fd;
   log_size_ = h.size();
+  ends_complete_ = false;
   return true;
 }
 
@@ -307,12 +314,12 @@ void StateStore::write_record(std::uint8_t type, const void* data, std::uint32_t
   if (hook_) hook_(IoOp::kLogWrite, log_fd_, rec.data(), rec.size());
   if (const int err = write_all(log_fd_, rec.data(), rec.size())) {
     fail("cannot append to " + log_path(generation_), err);
-    // Cut back to the last whole record, so the log on disk stays clean (shrinking works on a full disk).
-    if (::ftruncate(log_fd_, static_cast<off_t>(log_size_)) != 0) fail("cannot cut back " + log_path(generation_), errno);
     if (type != kEnd) ++counters_.records_not_persisted;
     suspend(last_error_);
     return;
   }
+  if (type == kEnd) before_end_ = log_size_;
+  ends_complete_ = type == kEnd;
   log_size_ += rec.size();
   if (type != kEnd) ++counters_.records_appended;
   if (now - last_sync_ >= sync_every_) {  // on the disk: bounds what a power loss can cost

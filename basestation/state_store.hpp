@@ -99,6 +99,8 @@ class StateStore {
   std::uint64_t keep_from_ = 0;    // the oldest generation still needed (the previous good snapshot)
   int log_fd_ = -1;
   std::uint64_t log_size_ = 0;     // bytes of whole records in the current log
+  std::uint64_t before_end_ = 0;   // its size before its last end record
+  bool ends_complete_ = false;     // its last record is an end record
   PersistCounters counters_;
   std::string last_error_;
   IoHook hook_;

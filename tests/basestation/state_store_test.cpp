@@ -244,9 +244,11 @@ TEST(StateStore, TornOrCorruptLogTailIsIgnoredAndCounted) {
 
 // ---- full disk
 
-TEST(StateStore, FullDiskIsCountedGoesOnInMemoryAndLeavesTheDiskRestorable) {
+// `end_first`: the disk fills just after the log's end record (a snapshot attempt that then
+// fails): the log must lose its end record too, or a fallback would replay across the gap.
+void full_disk(bool end_first) {
   const FleetScenario s = testing::make_fleet_scenario(2, 200);
-  const std::size_t n = s.messages.size(), half = n / 2;
+  const std::size_t n = s.messages.size(), half = n / 2, room_again = half + 150;
   const fs::path dir = fresh_dir("fulldisk");
   Fusion f(config_for(s));
   StateStore store(dir.string(), 1000 * kNanosPerSecond, 0);
@@ -257,30 +259,35 @@ TEST(StateStore, FullDiskIsCountedGoesOnInMemoryAndLeavesTheDiskRestorable) {
       ASSERT_TRUE(store.maybe_snapshot(f, static_cast<Nanos>(k) * kStep, true));
     }
   }
-  const fs::path log = dir / ("log-" + std::to_string(store.generation()) + ".bin");
+  const std::uint64_t gen_before = store.generation();
+  const fs::path log = dir / ("log-" + std::to_string(gen_before) + ".bin");
   const auto before = files_in(dir);
   {
-    FileSizeLimit full(fs::file_size(log) + 3000);  // a few records more fit
+    // A few records more fit; or the end record (25 bytes) and no message.
+    FileSizeLimit full(fs::file_size(log) + (end_first ? 40 : 3000));
     ASSERT_TRUE(full.ok());
-    for (std::size_t k = half; k < n; ++k) {
+    for (std::size_t k = half; k < room_again; ++k) {
+      if (end_first && k == half) {
+        EXPECT_FALSE(store.maybe_snapshot(f, static_cast<Nanos>(k) * kStep, true));
+      }
       accept(&f, &store, s.messages[k], static_cast<Nanos>(k) * kStep);
-      if (k == half + 100) {
+      if (!end_first && k == half + 100) {
         EXPECT_FALSE(store.maybe_snapshot(f, static_cast<Nanos>(k) * kStep, true));
       }
     }
   }
   const PersistCounters c = store.counters();
   EXPECT_FALSE(store.persisting());
-  EXPECT_GE(c.write_errors, 2u);  // the append that hit the limit, the snapshot
+  EXPECT_EQ(c.write_errors, 2u);  // the append that hit the limit, the snapshot; each once
   EXPECT_EQ(c.disk_full, c.write_errors);
   EXPECT_EQ(c.snapshots_failed, 1u);
   EXPECT_NE(store.last_error().find("File too large"), std::string::npos) << store.last_error();
   const std::uint64_t persisted = c.records_appended;
-  EXPECT_GT(persisted, half);
-  EXPECT_LT(persisted, half + 10);
-  EXPECT_EQ(persisted + c.records_not_persisted, n);
+  EXPECT_GE(persisted, end_first ? half : half + 1);
+  EXPECT_LT(persisted, end_first ? half + 1 : half + 10);
+  EXPECT_EQ(persisted + c.records_not_persisted, room_again);
   // In memory nothing was lost.
-  EXPECT_TRUE(same_state(f, reference(s, n)));
+  EXPECT_TRUE(same_state(f, reference(s, room_again)));
   // On disk: the snapshots untouched, the log grown by whole records only, no temporary file.
   const auto after = files_in(dir);
   ASSERT_EQ(after.size(), before.size());
@@ -292,25 +299,41 @@ TEST(StateStore, FullDiskIsCountedGoesOnInMemoryAndLeavesTheDiskRestorable) {
       EXPECT_EQ(after.at(name), bytes) << name;
     }
   }
-  {  // ... and it restores, to the last message logged, without a torn record.
+  auto restored_copy = [&](RestoreReport* rep) {
     const fs::path copy = fresh_dir("fulldisk-copy");
     fs::copy(dir, copy);
     Fusion g(config_for(s));
     StateStore other(copy.string(), 1000 * kNanosPerSecond);
-    const RestoreReport rep = other.restore(&g);
-    EXPECT_EQ(rep.torn_records, 0u);
-    EXPECT_TRUE(same_state(g, reference(s, persisted)));
+    *rep = other.restore(&g);
     fs::remove_all(copy);
+    return g;
+  };
+  {  // ... and it restores, to the last message logged, without a torn record.
+    RestoreReport rep;
+    EXPECT_TRUE(same_state(restored_copy(&rep), reference(s, persisted)));
+    EXPECT_EQ(rep.torn_records, 0u);
   }
   // Room again: the next snapshot resumes persistence with the whole in-memory state.
-  ASSERT_TRUE(store.maybe_snapshot(f, static_cast<Nanos>(n) * kStep, true));
+  ASSERT_TRUE(store.maybe_snapshot(f, static_cast<Nanos>(room_again) * kStep, true));
   EXPECT_TRUE(store.persisting());
-  Fusion g(config_for(s));
-  StateStore other(dir.string(), 1000 * kNanosPerSecond);
-  other.restore(&g);
-  EXPECT_TRUE(same_state(g, f));
+  for (std::size_t k = room_again; k < n; ++k) accept(&f, &store, s.messages[k], static_cast<Nanos>(k) * kStep);
+  {
+    RestoreReport rep;
+    EXPECT_TRUE(same_state(restored_copy(&rep), reference(s, n)));
+  }
+  // Were that snapshot lost, the fallback is the one before the full disk and its log,
+  // which was cut short: the log after it is not replayed across the gap.
+  ASSERT_EQ(store.generation(), gen_before + 1);
+  flip_byte(dir / ("snapshot-" + std::to_string(gen_before + 1) + ".bin"), 100);
+  RestoreReport rep;
+  EXPECT_TRUE(same_state(restored_copy(&rep), reference(s, persisted)));
+  EXPECT_EQ(rep.snapshots_rejected, 1u);
+  EXPECT_EQ(rep.logs_replayed, 1u);
   fs::remove_all(dir);
 }
+
+TEST(StateStore, FullDiskIsCountedGoesOnInMemoryAndLeavesTheDiskRestorable) { full_disk(false); }
+TEST(StateStore, FullDiskJustAfterALogsEndRecordStillLeavesTheDiskRestorable) { full_disk(true); }
 
 TEST(StateStore, AFailedSnapshotInsideRestoreKeepsTheGoodOneAndTheLog) {
   const FleetScenario s = testing::make_fleet_scenario(2, 100);
