@@ -270,7 +270,7 @@ RestoreReport StateStore::restore(Fusion* fusion) {
   generation_ = newest;
   keep_from_ = base;
   rep.snapshot_written = maybe_snapshot(*fusion, 0, true);
-  last_snapshot_ = 0;
+  clock_unset_ = true;  // the period runs from the first call after this one (restore has no clock)
   return rep;
 }
 
@@ -393,6 +393,12 @@ void StateStore::remove_older_than(std::uint64_t gen) {
 }
 
 bool StateStore::maybe_snapshot(const Fusion& fusion, Nanos now, bool force) {
+  if (!force && clock_unset_ && log_fd_ >= 0) {  // restore's snapshot was just written
+    clock_unset_ = false;
+    last_snapshot_ = now;
+    return false;
+  }
+  clock_unset_ = false;
   if (!force && now - last_snapshot_ < snapshot_period_) return false;
   last_snapshot_ = now;
   const std::uint64_t gen = generation_ + 1;

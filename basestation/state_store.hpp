@@ -95,6 +95,7 @@ class StateStore {
   std::string dir_;
   Nanos snapshot_period_, sync_every_;
   Nanos last_snapshot_ = 0, last_sync_ = 0;
+  bool clock_unset_ = false;
   std::uint64_t generation_ = 0;   // of the current log (and of the newest snapshot)
   std::uint64_t keep_from_ = 0;    // the oldest generation still needed (the previous good snapshot)
   int log_fd_ = -1;
