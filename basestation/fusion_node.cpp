@@ -19,16 +19,16 @@ FusionNode::FusionNode(const dds::Participant& pp, const BaseConfig& cfg)
 
 std::string FusionNode::restore() {
   const RestoreReport r = store_.restore(&fusion_);
+  // Short (the logger keeps 192 characters): the store logs its own errors in full.
   char buf[512];
   std::snprintf(buf, sizeof buf,
-                "state in %s: %s, replayed %llu odometry + %llu feature messages from %llu log(s), %llu torn record(s) "
-                "ignored (%llu bytes), %llu failed record(s) skipped, %llu snapshot(s) refused; %s; %zu robot(s), %zu feature(s)",
+                "state in %s: %s, %llu refused; %s; replayed %llu odometry + %llu features from %llu log(s), %llu torn "
+                "(%llu bytes), %llu failed; %zu robot(s), %zu feature(s)",
                 store_.dir().c_str(), r.snapshot_loaded ? "snapshot loaded" : "no snapshot (fresh start)",
+                static_cast<unsigned long long>(r.snapshots_rejected), r.snapshot_written ? "persisting" : "NOT PERSISTING",
                 static_cast<unsigned long long>(r.replayed_odometry), static_cast<unsigned long long>(r.replayed_features),
                 static_cast<unsigned long long>(r.logs_replayed), static_cast<unsigned long long>(r.torn_records),
                 static_cast<unsigned long long>(r.torn_bytes), static_cast<unsigned long long>(r.failed_records),
-                static_cast<unsigned long long>(r.snapshots_rejected),
-                r.snapshot_written ? "persisting" : ("NOT PERSISTING (running in memory): " + store_.last_error()).c_str(),
                 fusion_.robots().size(), fusion_.filter().feature_count());
   return buf;
 }

@@ -2,6 +2,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <csignal>
 #include <cstdio>
 
 #include "basestation/base_config.hpp"
@@ -29,6 +30,8 @@ const char* mode_name(cairn_RobotMode m) {
 
 int run(const std::string& config_path, double duration_s) {
   const base::BaseConfig cfg = base::load_base_config(config_path);
+  // A file-size limit must give EFBIG (counted, the fusion goes on in memory), not kill the base.
+  std::signal(SIGXFSZ, SIG_IGN);
   logger().start();
   dds::Participant pp(cfg.dds);
   CAIRN_LOG_INFO("base", "base station '{}' starting; DDS {}", cfg.name, pp.describe());
