@@ -19,13 +19,16 @@ FusionNode::FusionNode(const dds::Participant& pp, const BaseConfig& cfg)
 
 std::string FusionNode::restore() {
   const RestoreReport r = store_.restore(&fusion_);
-  char buf[256];
+  // Short (the logger keeps 192 characters): the store logs its own errors in full.
+  char buf[512];
   std::snprintf(buf, sizeof buf,
-                "state in %s: %s, replayed %llu odometry + %llu feature messages from the log, %llu torn record(s) ignored, "
-                "%llu failed record(s) skipped; %zu robot(s), %zu feature(s)",
+                "state in %s: %s, %llu refused; %s; replayed %llu odometry + %llu features from %llu log(s), %llu torn "
+                "(%llu bytes), %llu failed; %zu robot(s), %zu feature(s)",
                 store_.dir().c_str(), r.snapshot_loaded ? "snapshot loaded" : "no snapshot (fresh start)",
+                static_cast<unsigned long long>(r.snapshots_rejected), r.snapshot_written ? "persisting" : "NOT PERSISTING",
                 static_cast<unsigned long long>(r.replayed_odometry), static_cast<unsigned long long>(r.replayed_features),
-                static_cast<unsigned long long>(r.torn_records), static_cast<unsigned long long>(r.failed_records),
+                static_cast<unsigned long long>(r.logs_replayed), static_cast<unsigned long long>(r.torn_records),
+                static_cast<unsigned long long>(r.torn_bytes), static_cast<unsigned long long>(r.failed_records),
                 fusion_.robots().size(), fusion_.filter().feature_count());
   return buf;
 }
@@ -96,7 +99,19 @@ std::string FusionNode::summary() const {
                 fusion_.robots().size(), static_cast<unsigned long long>(c.robots_localized),
                 static_cast<unsigned long long>(c.robots_restarted), fusion_.filter().feature_count(),
                 c.rejected.summary().c_str());
-  return buf;
+  const PersistCounters& p = store_.counters();
+  char pbuf[384];
+  std::snprintf(pbuf, sizeof pbuf,
+                "; persistence: %s, %llu logged, %llu in memory only, snapshots %llu written / %llu failed, "
+                "write errors %llu (disk full %llu)",
+                store_.persisting() ? "on" : "SUSPENDED", static_cast<unsigned long long>(p.records_appended),
+                static_cast<unsigned long long>(p.records_not_persisted), static_cast<unsigned long long>(p.snapshots_written),
+                static_cast<unsigned long long>(p.snapshots_failed), static_cast<unsigned long long>(p.write_errors),
+                static_cast<unsigned long long>(p.disk_full));
+  std::string out = buf;
+  out += pbuf;
+  if (!store_.persisting() && !store_.last_error().empty()) out += " (" + store_.last_error() + ")";
+  return out;
 }
 
 }  // namespace cairn::base

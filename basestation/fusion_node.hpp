@@ -27,6 +27,7 @@ class FusionNode {
   /// One line with the counters, for the console.
   std::string summary() const;
   const Fusion& fusion() const { return fusion_; }
+  const StateStore& store() const { return store_; }
 
  private:
   template <typename M>

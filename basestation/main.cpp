@@ -2,6 +2,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 
@@ -34,6 +35,8 @@ const char* mode_name(const cairn_RobotMode& field) {
 
 int run(const std::string& config_path, double duration_s) {
   const base::BaseConfig cfg = base::load_base_config(config_path);
+  // A file-size limit must give EFBIG (counted, the fusion goes on in memory), not kill the base.
+  std::signal(SIGXFSZ, SIG_IGN);
   logger().start();
   dds::Participant pp(cfg.dds);
   CAIRN_LOG_INFO("base", "base station '{}' starting; DDS {}", cfg.name, pp.describe());
