@@ -116,7 +116,8 @@ int mrclam(const MrclamCmdOptions& o) {
   // A mutual swap under the label-free fit (a lands on b and b on a) points at the data's labels.
   for (const auto& r : results) {
     if (r.association != "labels") continue;
-    for (const auto& [l, g] : r.label_mismatches) {
+    for (const auto& pair : r.label_mismatches) {
+      const auto l = pair.first, g = pair.second;  // named copies: clang cannot capture bindings
       const bool mutual = std::any_of(r.label_mismatches.begin(), r.label_mismatches.end(),
                                       [&](const auto& m) { return m.first == g && m.second == l; });
       if (mutual && l < g) {
