@@ -252,6 +252,25 @@ void Executive::rt_thread() {
     // The wheels first: a scan takes the odometry up to its mid-sweep.
     WheelReading ws;
     if (wheels_.read(&ws)) core_.on_wheels(ws);
+    // Then the control cycle when it is due, before any scan: a scan's matching (a few ms
+    // at most, bounded by the configuration check) must not delay the wheel commands.
+    const Nanos wake = clock.now();
+    if (wake >= deadline) {
+      control_cycle(wake, dt);
+      const Nanos done = clock.now();
+      stats.record(wake, deadline, done);
+      snap_.period_mean_us = static_cast<float>(stats.mean_us());
+      snap_.period_p99_us = static_cast<float>(stats.p99_us());
+      snap_.jitter_max_us = static_cast<float>(stats.max_jitter_us());
+      snap_.scan_work_p99_us = static_cast<float>(scan_work.p99_us());
+      snap_.scan_work_max_us = static_cast<float>(scan_work.max_us());
+      snap_.cycles = stats.cycles();
+      snap_.misses = stats.misses();
+      snap_.first_misses = stats.miss_log();
+      rt_box_.write(snap_);
+      deadline += cfg_.period;
+      if (done > deadline) deadline = done + cfg_.period;  // overran: skip, do not burst
+    }
     // Scans: at most two per wake (the laser makes < 1 per 10 ms); the rest wait.
     for (int k = 0; k < 2 && scan_q_.pop(scan_work_.get()); ++k) {
       const Nanos begin = clock.now();
@@ -259,21 +278,6 @@ void Executive::rt_thread() {
       if (core_.mapper().rebuild_requested()) rebuild_event_.notify();  // a keyframe: the worker builds
       scan_work.record(clock.now() - begin);
     }
-    const Nanos wake = clock.now();
-    if (wake < deadline) continue;
-    control_cycle(wake, dt);
-    const Nanos done = clock.now();
-    stats.record(wake, deadline, done);
-    snap_.period_mean_us = static_cast<float>(stats.mean_us());
-    snap_.period_p99_us = static_cast<float>(stats.p99_us());
-    snap_.jitter_max_us = static_cast<float>(stats.max_jitter_us());
-    snap_.scan_work_p99_us = static_cast<float>(scan_work.p99_us());
-    snap_.scan_work_max_us = static_cast<float>(scan_work.max_us());
-    snap_.cycles = stats.cycles();
-    snap_.misses = stats.misses();
-    rt_box_.write(snap_);
-    deadline += cfg_.period;
-    if (done > deadline) deadline = done + cfg_.period;  // overran: skip, do not burst
   }
   // Leave the wheels commanded to zero.
   wheel_cmd_.write({});

@@ -48,6 +48,7 @@ struct RtSnapshot {
   float period_mean_us = 0, period_p99_us = 0, jitter_max_us = 0;
   float scan_work_p99_us = 0, scan_work_max_us = 0;  // one scan's processing on the RT thread
   std::uint64_t cycles = 0, misses = 0, overflows = 0, scans = 0, matched = 0, stops = 0;
+  std::array<LoopStats::Miss, LoopStats::kMissLog> first_misses{};  // the first min(misses, 8)
   std::uint64_t publish_drops = 0;
   bool estop = false;
   bool latched = false;        // the e-stop latch: drives disabled, motor power off until a reset

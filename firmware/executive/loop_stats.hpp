@@ -1,5 +1,6 @@
 // RT loop period statistics without allocation: mean, p99 from a fixed histogram
-// (10 µs bins up to 100 ms), maximum jitter, deadline misses.
+// (10 µs bins up to 100 ms), maximum jitter, deadline misses and when the first few
+// happened (so a test can tell a miss of Cairn's from time the platform took away).
 #pragma once
 
 #include <array>
@@ -23,7 +24,10 @@ class LoopStats {
       const Nanos jitter = p > period_ ? p - period_ : period_ - p;
       if (jitter > max_jitter_) max_jitter_ = jitter;
     }
-    if (finished > deadline + period_) ++misses_;
+    if (finished > deadline + period_) {
+      if (misses_ < miss_log_.size()) miss_log_[misses_] = {deadline, finished};
+      ++misses_;
+    }
     last_wake_ = wake;
     ++cycles_;
   }
@@ -39,6 +43,13 @@ class LoopStats {
   double max_jitter_us() const { return static_cast<double>(max_jitter_) / 1e3; }
   std::uint64_t cycles() const { return cycles_; }
   std::uint64_t misses() const { return misses_; }
+  /// A missed cycle: its deadline and when its work finished (more than a period later).
+  struct Miss {
+    Nanos deadline = 0, finished = 0;
+  };
+  static constexpr std::size_t kMissLog = 8;
+  /// The first min(misses(), kMissLog) misses.
+  const std::array<Miss, kMissLog>& miss_log() const { return miss_log_; }
 
  private:
   static constexpr Nanos kBin = 10 * 1000;
@@ -46,6 +57,7 @@ class LoopStats {
   Nanos last_wake_ = 0, sum_ = 0, max_jitter_ = 0;
   std::uint64_t n_ = 0, cycles_ = 0, misses_ = 0;
   std::array<std::uint32_t, 10000> hist_{};
+  std::array<Miss, kMissLog> miss_log_{};
 };
 
 /// Durations of a piece of work (a scan's processing on the RT thread) without

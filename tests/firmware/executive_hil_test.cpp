@@ -22,6 +22,7 @@
 #include "firmware/executive/executive.hpp"
 #include "firmware/executive/path_follower.hpp"
 #include "hil/bench/robot_bench.hpp"
+#include "tests/support/cpu_stall_witness.hpp"
 #include "tests/support/pty_baud.hpp"
 #include "tests/support/timing.hpp"
 #ifndef CAIRN_SANITIZED
@@ -95,8 +96,9 @@ struct Harness {
   std::uint64_t out_of_order = 0, odometry = 0, lasers = 0, landmark_obs = 0, landmark_near_pole = 0;
   Pose2 start;
 
-  // realtime: ask for the production scheduling (SCHED_FIFO; granted to root, as in CI).
-  explicit Harness(const hil::RobotBenchConfig& bc = {}, bool realtime = false)
+  // realtime: ask for the production scheduling (SCHED_FIFO; granted to root, as in CI),
+  // with the RT loop on `rt_cpu` (-1: any).
+  explicit Harness(const hil::RobotBenchConfig& bc = {}, bool realtime = false, int rt_cpu = -1)
       : bench(world, laser_link(bc)), start(bc.start) {
     bench.start();
     cfg.lms_uri = bench.lms_uri();
@@ -108,7 +110,7 @@ struct Harness {
     cfg.io_threads = {};
     cfg.map_worker = {};
     if (realtime) {
-      cfg.rt_loop = {80, -1, false};
+      cfg.rt_loop = {80, rt_cpu, false};
       cfg.io_threads = {70, -1, false};
       cfg.map_worker = {50, -1, false};
     }
@@ -183,6 +185,8 @@ struct Harness {
   Pose2 truth_local() const { return between(start, bench.truth().pose); }
 };
 
+double ms_of(Nanos d) { return nanos_to_seconds(d) * 1e3; }
+
 TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
   g_allocations = 0;
   g_counted_threads = 0;
@@ -190,12 +194,18 @@ TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
   double odometer = 0;
   [[maybe_unused]] bool rt_granted = false;  // read only in unsanitized builds
   firmware::RtSnapshot snap;
+  // The RT loop on the last CPU, watched there by a witness one priority above it: a
+  // machine that is itself a VM loses whole milliseconds of a CPU to its host now and then
+  // (CI once saw an 8 ms gap), which no scheduling inside it can prevent.
+  const bool realtime = testing::timing_slack() == 1.0;
+  const int rt_cpu = std::max(0, static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)) - 1);
+  testing::CpuStallWitness witness(rt_cpu, 81);
   {
     hil::RobotBenchConfig bc;
     bc.start = {5.0, 10.0, 0.0};
     // The production scheduling natively; not under sanitizers or qemu, where SCHED_FIFO
     // threads running 5-15x slower starve the emulators beside them.
-    Harness h(bc, /*realtime=*/testing::timing_slack() == 1.0);
+    Harness h(bc, realtime, rt_cpu);
     ASSERT_GT(h.run_until([&] { return h.exec->rt_snapshot().stop == firmware::StopReason::kNone; }, 10.0), 0)
         << "never ready: stop reason " << firmware::stop_reason_text(h.exec->rt_snapshot().stop);
     // Written by the RT thread before its first snapshot, which the line above has read.
@@ -237,9 +247,12 @@ TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
   std::printf("travelled %.1f m; local pose error %.3f m = %.2f %% (heading %.2f deg); scans %llu, matched %llu\n",
               odometer, drift, 100 * drift / odometer, std::abs(normalize_angle(end_local.theta - end_truth.theta)) * 57.3,
               static_cast<unsigned long long>(snap.scans), static_cast<unsigned long long>(snap.matched));
-  std::printf("RT loop: period mean %.1f us, p99 %.1f us, max jitter %.1f us, %llu cycles, %llu deadline misses\n",
+  witness.stop();
+  std::printf("RT loop: period mean %.1f us, p99 %.1f us, max jitter %.1f us, %llu cycles, %llu deadline misses; scan work p99 %.0f us, max %.0f us\n",
               static_cast<double>(snap.period_mean_us), static_cast<double>(snap.period_p99_us), static_cast<double>(snap.jitter_max_us), static_cast<unsigned long long>(snap.cycles),
-              static_cast<unsigned long long>(snap.misses));
+              static_cast<unsigned long long>(snap.misses), static_cast<double>(snap.scan_work_p99_us), static_cast<double>(snap.scan_work_max_us));
+  std::printf("CPU %d taken by the platform (witness at SCHED_FIFO 81%s): %zu stalls > 0.1 ms, longest %.2f ms, total %.1f ms\n", rt_cpu,
+              witness.granted() ? "" : " NOT granted", witness.stalls(), ms_of(witness.longest()), ms_of(witness.total()));
   EXPECT_GT(odometer, 45.0);
   EXPECT_LT(drift, 0.01 * odometer);
   EXPECT_GT(snap.matched, snap.scans * 9 / 10);
@@ -247,8 +260,19 @@ TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
 #ifndef CAIRN_SANITIZED
   // With the production scheduling no control cycle may finish a whole period late. Not
   // under qemu-user (timing slack > 1), where the emulated CPU is several times slower.
-  if (rt_granted && testing::timing_slack() == 1.0) {
-    EXPECT_EQ(snap.misses, 0u) << "deadline misses with SCHED_FIFO";
+  // A miss counts against Cairn when the cycle, less the time the witness saw the platform
+  // take from that CPU (measured on a 0.25 ms grid: up to that much of a stall is unseen),
+  // still ran more than a period past its deadline.
+  if (rt_granted && realtime) {
+    ASSERT_TRUE(witness.granted());
+    EXPECT_LE(snap.misses, snap.first_misses.size()) << "more deadline misses than the log holds";
+    const Nanos period = firmware::ExecutiveConfig{}.period;  // the harness keeps the default
+    for (std::size_t i = 0; i < std::min<std::size_t>(snap.misses, snap.first_misses.size()); ++i) {
+      const auto& m = snap.first_misses[i];
+      const Nanos late = m.finished - m.deadline, taken = witness.stolen(m.deadline, m.finished);
+      std::printf("deadline miss: finished %.2f ms after its deadline, %.2f ms of it taken by the platform\n", ms_of(late), ms_of(taken));
+      EXPECT_LE(late - taken, period + testing::CpuStallWitness::kGrid) << "a deadline miss of Cairn's own with SCHED_FIFO";
+    }
   }
   EXPECT_EQ(g_counted_threads.load(), 5);
   EXPECT_EQ(g_allocations.load(), 0u) << "heap allocations on the RT and I/O threads after start-up";
@@ -257,7 +281,6 @@ TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
 
 // Helpers for the fault tests: times are MonotonicClock, shared by the emulators and the test.
 Nanos now_ns() { return MonotonicClock::instance().now(); }
-double ms(Nanos d) { return nanos_to_seconds(d) * 1e3; }
 // Polls `when()` (a recorded time, 0 = not yet) every 0.5 ms until it is after `after`;
 // returns it, or 0 after `limit`.
 template <typename F>
@@ -336,10 +359,10 @@ TEST(ExecutiveHil, EstopLatchesTorqueOffWithin20msAndOnlyAResetRestarts) {
     const Nanos pressed = board.estop_changed_at();
     const Nanos off = torque_off_both(h, pressed, kNanosPerSecond);
     ASSERT_GT(off, 0) << "the drives never left operation enabled";
-    press_to_torque_off.push_back(ms(off - pressed));
+    press_to_torque_off.push_back(ms_of(off - pressed));
     const Nanos relay_off = wait_recorded([&] { return board.relay_off_written_at(); }, pressed, kNanosPerSecond);
     ASSERT_GT(relay_off, 0) << "motor power was never switched off through the board";
-    press_to_relay_off.push_back(ms(relay_off - pressed));
+    press_to_relay_off.push_back(ms_of(relay_off - pressed));
     EXPECT_GT(h.run_until([&] { return reason() == StopReason::kEstop; }, 1.0, &follower), 0);
     EXPECT_TRUE(h.exec->rt_snapshot().latched);
     // A reset while the e-stop is pressed is refused and forgotten.
@@ -402,7 +425,7 @@ TEST(ExecutiveHil, StaleInputsStopWithinTheirBounds) {
   board.set_silent(true);
   Nanos off = torque_off_both(h, t0, kNanosPerSecond);
   ASSERT_GT(off, 0);
-  const double silent_ms = ms(off - t0);
+  const double silent_ms = ms_of(off - t0);
   EXPECT_GT(h.run_until([&] { return reason() == StopReason::kPowerLost; }, 1.0, &follower), 0);
   board.set_silent(false);
   EXPECT_GT(h.run_until([&] { return reason() == StopReason::kResetRequired; }, 2.0, &follower), 0);
@@ -418,7 +441,7 @@ TEST(ExecutiveHil, StaleInputsStopWithinTheirBounds) {
   const Nanos zero = wait_recorded([&] { return h.bench.drive(0).with_node([](hil::DriveNode& n) { return n.zero_target_at(); }); },
                                    t0, kNanosPerSecond);
   ASSERT_GT(zero, 0) << "the live drive was never commanded zero";
-  const double feedback_ms = ms(zero - t0);
+  const double feedback_ms = ms_of(zero - t0);
   EXPECT_GT(h.run_until([&] { return reason() == StopReason::kDrivesNotReady; }, 2.0, &follower), 0);
   EXPECT_EQ(h.exec->rt_snapshot().v, 0.0);
   EXPECT_FALSE(h.exec->rt_snapshot().latched);
@@ -433,7 +456,7 @@ TEST(ExecutiveHil, StaleInputsStopWithinTheirBounds) {
   h.can_port->hang(true);
   const Nanos relay_off = wait_recorded([&] { return board.relay_off_written_at(); }, t0, kNanosPerSecond);
   ASSERT_GT(relay_off, 0) << "motor power was not switched off";
-  const double can_ms = ms(relay_off - t0);
+  const double can_ms = ms_of(relay_off - t0);
   EXPECT_FALSE(board.motor_relay());
   EXPECT_GT(h.run_until([&] { return reason() == StopReason::kFeedbackStale; }, 1.0, &follower), 0);
   EXPECT_EQ(h.exec->rt_snapshot().latch_cause, firmware::LatchCause::kCanStalled);
