@@ -63,6 +63,9 @@ BaseConfig from_document(const ConfigDocument& doc) {
   if (const auto m = root.optional_section("mapper")) {
     c.mapper_enabled = m->boolean_or("enabled", true);
     c.mapper = mapper::mapper_config_from(*m);
+    c.map_tile_period = seconds_to_nanos(m->number_or("tile_period_s", 1.0, {0.05, 600.0}));
+    c.map_reframe_period = seconds_to_nanos(m->number_or("reframe_period_s", 10.0, {0.1, 3600.0}));
+    c.map_export_dir = m->string_or("export_dir", c.map_export_dir);
   }
   if (const auto f = root.optional_section("fusion")) c.fusion.restart_sigma = read_sigma(*f, "restart_sigma", c.fusion.restart_sigma);
   if (const auto u = root.optional_section("unknown_robot")) {

@@ -27,8 +27,11 @@ struct BaseConfig {
   FusionConfig fusion;      // [[robot]] priors, [unknown_robot]
 
   // [mapper]: the central occupancy grid (docs/mapper.md).
-  bool mapper_enabled = true;
+  bool mapper_enabled = true;  // needs [fusion]: scans are placed by its estimates
   mapper::MapperConfig mapper;
+  Nanos map_tile_period = kNanosPerSecond;         // changed MapTiles at most this often
+  Nanos map_reframe_period = 10 * kNanosPerSecond; // re-render scans whose robot's frame moved
+  std::string map_export_dir = "cairn-base-map";   // SIGUSR1 and exit write the map here
 };
 
 BaseConfig load_base_config(const std::string& path);

@@ -2,6 +2,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <atomic>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -9,6 +10,7 @@
 #include "basestation/base_config.hpp"
 #include "basestation/fleet.hpp"
 #include "basestation/fusion_node.hpp"
+#include "basestation/grid_map_node.hpp"
 #include "cairn.h"
 #include "common/dds/topics.hpp"
 #include "common/log.hpp"
@@ -31,6 +33,19 @@ const char* mode_name(const cairn_RobotMode& field) {
     case cairn_MODE_FAULT: return "fault";
   }
   return "?";
+}
+
+// SIGUSR1: write the map now (docs/mapper.md, "In cairn-base").
+std::atomic<bool> g_export_requested{false};
+void on_export_signal(int) { g_export_requested.store(true); }
+
+void export_map(base::GridMapNode& map, const base::FusionNode& fusion, const std::string& dir, const char* why) {
+  const std::string error = map.export_to(dir, fusion.fusion());
+  if (error.empty()) {
+    CAIRN_LOG_INFO("base", "map exported to {} ({}): map.pgm, map.yaml, map.png, landmarks.json", dir.c_str(), why);
+  } else {
+    CAIRN_LOG_ERROR("base", "map export to {} failed ({}): {}", dir.c_str(), why, error.c_str());
+  }
 }
 
 int run(const std::string& config_path, double duration_s) {
@@ -59,6 +74,17 @@ int run(const std::string& config_path, double duration_s) {
     fusion = std::make_unique<base::FusionNode>(pp, cfg);
     CAIRN_LOG_INFO("base", "fusion: {}", fusion->restore());
   }
+  // The central map needs the fusion: each scan is placed by its estimate of the robot.
+  std::unique_ptr<base::GridMapNode> map;
+  if (fusion && cfg.mapper_enabled) {
+    map = std::make_unique<base::GridMapNode>(pp, cfg);
+    struct sigaction sa {};
+    sa.sa_handler = on_export_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGUSR1, &sa, nullptr);
+    CAIRN_LOG_INFO("base", "map: {} x {} tiles of {} cells; kill -USR1 {} writes it to {}", map->tiles_x(), map->tiles_y(),
+                   cairn_TILE_CELLS, static_cast<long long>(getpid()), cfg.map_export_dir.c_str());
+  }
 
   const Nanos end = duration_s > 0 ? start + seconds_to_nanos(duration_s) : 0;
   Nanos next_table = start + cfg.table_period;
@@ -66,6 +92,10 @@ int run(const std::string& config_path, double duration_s) {
     status_reader.wait(20 * kNanosPerMilli);
     const Nanos now = clock.now();
     if (fusion) fusion->poll(now);
+    if (map) {
+      map->poll(now, fusion->fusion());
+      if (g_export_requested.exchange(false)) export_map(*map, *fusion, cfg.map_export_dir, "SIGUSR1");
+    }
     status_reader.take(
         [&](const cairn_RobotStatus& s, const dds_sample_info_t&) {
           fleet.on_status(s.robot_id, s.name, mode_name(s.mode), s.seq, now);
@@ -84,10 +114,15 @@ int run(const std::string& config_path, double duration_s) {
       std::printf("[%8.3f] fleet: %zu alive\n%s", nanos_to_seconds(now - start), fleet.alive_count(),
                   fleet.table(now).c_str());
       if (fusion) std::printf("[%8.3f] %s\n", nanos_to_seconds(now - start), fusion->summary().c_str());
+      if (map) std::printf("[%8.3f] %s\n", nanos_to_seconds(now - start), map->summary().c_str());
       std::fflush(stdout);
     }
   }
   if (fusion) std::printf("[%8.3f] final %s\n", nanos_to_seconds(clock.now() - start), fusion->summary().c_str());
+  if (map) {
+    export_map(*map, *fusion, cfg.map_export_dir, "exit");
+    std::printf("[%8.3f] final %s\n", nanos_to_seconds(clock.now() - start), map->summary().c_str());
+  }
   CAIRN_LOG_INFO("base", "base station stopping");
   logger().stop();
   return 0;
@@ -125,8 +160,11 @@ int reset_estop(const std::string& config_path, int robot) {
 
 int main(int argc, char** argv) {
   CLI::App app{"cairn-base: the Cairn base station. Watches the fleet over DDS and prints a live table of\n"
-               "robots (id, name, mode, state, last seen). DDS runs on the loopback-only profile unless the\n"
-               "configuration's [dds] section says otherwise."};
+               "robots (id, name, mode, state, last seen); fuses every robot's odometry and features (CCML) and\n"
+               "publishes corrections and the landmark map; builds the global occupancy map from the robots'\n"
+               "scans and publishes its changed tiles (MapTile). SIGUSR1 writes the map (PGM + YAML for\n"
+               "map_server, PNG, landmarks JSON) to [mapper] export_dir; so does every exit. DDS runs on the\n"
+               "loopback-only profile unless the configuration's [dds] section says otherwise."};
   std::string config_path;
   double duration = 0;
   app.add_option("-c,--config", config_path, "base-station configuration file (TOML), e.g. config/base.toml")->required();

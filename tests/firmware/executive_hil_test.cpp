@@ -97,8 +97,9 @@ struct Harness {
   Pose2 start;
 
   // realtime: ask for the production scheduling (SCHED_FIFO; granted to root, as in CI),
-  // with the RT loop on `rt_cpu` (-1: any).
-  explicit Harness(const hil::RobotBenchConfig& bc = {}, bool realtime = false, int rt_cpu = -1)
+  // with the RT loop on `rt_cpu` (-1: any). stale_scale stretches the stale-input timeouts
+  // (power board, wheel feedback, CAN thread) for a test whose subject is not them.
+  explicit Harness(const hil::RobotBenchConfig& bc = {}, bool realtime = false, int rt_cpu = -1, double stale_scale = 1.0)
       : bench(world, laser_link(bc)), start(bc.start) {
     bench.start();
     cfg.lms_uri = bench.lms_uri();
@@ -106,6 +107,8 @@ struct Harness {
     cfg.power_uri = bench.power_uri();
     cfg.laser_mount = bc.laser_mount;
     cfg.safety.max_v = 1.0;
+    cfg.safety.power_timeout = static_cast<Nanos>(static_cast<double>(cfg.safety.power_timeout) * stale_scale);
+    cfg.safety.feedback_timeout = static_cast<Nanos>(static_cast<double>(cfg.safety.feedback_timeout) * stale_scale);
     cfg.rt_loop = {};  // other tests run as an unprivileged user would
     cfg.io_threads = {};
     cfg.map_worker = {};
@@ -205,7 +208,10 @@ TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
     bc.start = {5.0, 10.0, 0.0};
     // The production scheduling natively; not under sanitizers or qemu, where SCHED_FIFO
     // threads running 5-15x slower starve the emulators beside them.
-    Harness h(bc, realtime, rt_cpu);
+    // Under qemu-user a CAN or Modbus thread starved for 50 ms is the emulation, not the
+    // robot, and the latch it sets would end the drive: the timeouts stretch with the slack
+    // (StaleInputsStopWithinTheirBounds measures them at their production values).
+    Harness h(bc, realtime, rt_cpu, testing::timing_slack());
     ASSERT_GT(h.run_until([&] { return h.exec->rt_snapshot().stop == firmware::StopReason::kNone; }, 10.0), 0)
         << "never ready: stop reason " << firmware::stop_reason_text(h.exec->rt_snapshot().stop);
     // Written by the RT thread before its first snapshot, which the line above has read.

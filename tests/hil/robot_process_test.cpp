@@ -24,7 +24,9 @@
 
 #include "common/dds/participant.hpp"
 #include "common/dds/topics.hpp"
+#include "basestation/mapper/export.hpp"
 #include "hil/world/world.hpp"
+#include "tools/map_quality/map_quality.hpp"
 #include "tests/support/subprocess.hpp"
 
 namespace cairn {
@@ -64,10 +66,11 @@ TEST(RobotProcess, DrivesItsRouteThroughTheRealDriversWithFaultsAndTheBaseFollow
   std::string tmpl = read_file(src + "/config/robot-hil.toml");
   tmpl.replace(tmpl.find("[dds]\nprofile = \"loopback\"\n"), std::string("[dds]\nprofile = \"loopback\"\n").size(), dds);
   write_file(dir / "robot-template.toml", tmpl);
-  char base_cfg[1024];
+  char base_cfg[1536];
   std::snprintf(base_cfg, sizeof base_cfg,
-                "%s[fleet]\ntable_period_s = 5.0\n[fusion]\nstate_dir = \"%s\"\n[[robot]]\nid = 1\ninitial_pose = [%g, %g, %g]\n",
-                dds.c_str(), (dir / "base-state").c_str(), start.x, start.y, start.theta);
+                "%s[fleet]\ntable_period_s = 5.0\n[fusion]\nstate_dir = \"%s\"\n[mapper]\nexport_dir = \"%s\"\n"
+                "[[robot]]\nid = 1\ninitial_pose = [%g, %g, %g]\n",
+                dds.c_str(), (dir / "base-state").c_str(), (dir / "map").c_str(), start.x, start.y, start.theta);
   write_file(dir / "base.toml", base_cfg);
 
   // Faults while driving: e-stop at 15 s, laser unplugged at 25 s, right drive silent at 35 s; 2 s
@@ -170,12 +173,27 @@ TEST(RobotProcess, DrivesItsRouteThroughTheRealDriversWithFaultsAndTheBaseFollow
   ASSERT_TRUE(at_goal) << "route not completed: last local pose " << last.local_pose.x << " " << last.local_pose.y
                        << ", goal " << goal_local.transpose() << "\n" << robot.output() << "\n" << hil.output();
   const Pose2 local{last.local_pose.x, last.local_pose.y, last.local_pose.theta};
+  // The operator asks the running base for its map (SIGUSR1): written at once.
+  base.signal(SIGUSR1);
+  EXPECT_TRUE(base.wait_for_line("map exported to " + (dir / "map").string() + " (SIGUSR1)", 5s)) << base.output();
+  EXPECT_TRUE(std::filesystem::exists(dir / "map" / "map.yaml"));
+  std::filesystem::remove_all(dir / "map");
   robot.signal(SIGINT);
   EXPECT_EQ(robot.wait(10s), 0) << robot.output();
   hil.signal(SIGINT);
   EXPECT_EQ(hil.wait(10s), 0);
   base.signal(SIGINT);
   EXPECT_EQ(base.wait(10s), 0);
+  // ... and at exit. The central map of this one robot's route, from its LaserScans placed by
+  // the base's estimates, against the world's ground truth.
+  EXPECT_TRUE(base.wait_for_line("map exported to " + (dir / "map").string() + " (exit)", 1s)) << base.output();
+  const mapper::ClassGrid grid = mapper::read_map_server((dir / "map" / "map.yaml").string());
+  const tools::MapQuality q = tools::evaluate(grid, world, tools::default_start(world));
+  std::printf("base's map of the route: %zu known cells, agreement %.1f %%, wall offset mean %.2f / max %.2f cells\n",
+              q.known, 100 * q.agreement, q.wall_offset_mean_cells(), q.wall_offset_max_cells());
+  EXPECT_GT(q.known, 2000u);
+  EXPECT_GE(q.agreement, 0.95);
+  EXPECT_LE(q.wall_offset_mean_cells(), 1.0);
 
   const auto final_line = hil.wait_for_line("final robot 1 at", 1s);
   ASSERT_TRUE(final_line) << hil.output();
