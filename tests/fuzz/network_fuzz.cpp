@@ -4,7 +4,9 @@
 // The input is a sequence of samples: one op byte, then the raw bytes of the IDL struct
 // (zero-filled when the input runs out). Each goes through the one conversion
 // (common/dds/convert) and then, as the base's node and the robot's bridge would, into
-// the base's fusion (odometry, features) or the robot's side (corrections, tasks). At the
+// the base's fusion (odometry, features), the base's central mapper (laser scans, placed by
+// the fusion's frame estimate as basestation/grid_map_node does, or by a fixed frame when
+// the robot is not localised) or the robot's side (corrections, tasks). At the
 // end the fusion's state is saved and restored, and op 0xFF feeds the rest of the input to
 // the state-file reader (which may refuse it with an exception, never crash).
 //
@@ -18,6 +20,7 @@
 #include <vector>
 
 #include "basestation/fusion.hpp"
+#include "basestation/mapper/mapper.hpp"
 #include "common/dds/convert.hpp"
 
 namespace {
@@ -46,10 +49,19 @@ base::FusionConfig fleet() {
   return c;
 }
 
+mapper::MapperConfig small_grid() {
+  mapper::MapperConfig c;
+  c.origin_x = c.origin_y = -10;
+  c.width_m = c.height_m = 20;
+  c.store_bytes = 64 * 1024;  // small: the full-store path is reached
+  return c;
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   base::Fusion fusion(fleet());
+  mapper::Mapper map(small_grid());
   const std::uint8_t* p = data;
   const std::uint8_t* end = data + size;
   while (p < end) {
@@ -101,7 +113,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         cairn_LaserScan d;
         p = fill(&d, p, end);
         msg::LaserScan m;
-        (void)dds::from_dds(d, &m);
+        if (!dds::from_dds(d, &m)) break;
+        msg::PoseCorrection c;
+        if (!fusion.correction(m.robot_id, m.stamp, &c)) c.local_to_global = {0.5, -0.25, 0.1};
+        (void)map.add_scan_local(m, c.local_to_global);
         break;
       }
       case 5: {
@@ -114,8 +129,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       default: {  // what the node publishes: corrections and the landmark map
         msg::PoseCorrection c;
         (void)fusion.correction(robot, 0, &c);
-        std::vector<msg::Landmark> map;
-        fusion.landmarks(&map);
+        std::vector<msg::Landmark> landmarks;
+        fusion.landmarks(&landmarks);
+        if (fusion.correction(robot, 0, &c)) (void)map.on_frame_corrected(robot, c.local_to_global);
+        (void)map.take_changed();
         break;
       }
     }
