@@ -21,6 +21,7 @@ constexpr std::size_t kMaxBeams = 721;      // LMS2xx 180 deg at 0.25 deg
 constexpr std::size_t kMaxFeatures = 32;    // per FeatureObservations
 constexpr std::size_t kMaxLandmarks = 128;  // per FeatureMap page
 constexpr std::size_t kMaxPath = 64;        // waypoints in a TaskAssignment
+constexpr std::size_t kMaxBids = 48;        // frontier items per Bid (IDL MAX_BIDS)
 
 /// Row-major 3x3 / 2x2 covariances as plain arrays (Eigen types are not trivially copyable).
 using Cov3 = std::array<double, 9>;
@@ -116,6 +117,25 @@ struct TaskAssignment {
   std::array<double, 2 * kMaxPath> path_xy{};  // global frame, x0 y0 x1 y1 ...
 };
 
+/// One frontier a robot offers to explore (global frame): the cell, its expected
+/// information gain (unknown cells it may reveal) and the robot's path cost to it, and the
+/// bounding rectangle of its information-gain region (IGR) for the executive's discount.
+struct BidItem {
+  double x = 0, y = 0;
+  double gain = 0;  // cells
+  double cost = 0;  // m
+  double igr_min_x = 0, igr_min_y = 0, igr_max_x = 0, igr_max_y = 0;
+};
+
+/// A robot's best frontier items after a map update (robot -> base).
+struct Bid {
+  std::uint16_t robot_id = 0;
+  std::uint32_t seq = 0;
+  std::uint32_t map_version = 0;  // the map the items were computed on
+  std::uint16_t n_items = 0;
+  std::array<BidItem, kMaxBids> items{};
+};
+
 /// An operator's explicit e-stop reset for one robot (the robot's e-stop latches).
 struct SafetyReset {
   std::uint16_t robot_id = 0;
@@ -133,6 +153,6 @@ struct Landmark {
 static_assert(std::is_trivially_copyable_v<OdometryIncrement> && std::is_trivially_copyable_v<LaserScan> &&
               std::is_trivially_copyable_v<FeatureObservations> && std::is_trivially_copyable_v<PoseCorrection> &&
               std::is_trivially_copyable_v<TaskAssignment> && std::is_trivially_copyable_v<SafetyReset> &&
-              std::is_trivially_copyable_v<Landmark>);
+              std::is_trivially_copyable_v<Landmark> && std::is_trivially_copyable_v<Bid>);
 
 }  // namespace cairn::msg

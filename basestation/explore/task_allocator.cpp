@@ -1,0 +1,303 @@
+#include "basestation/explore/task_allocator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace cairn::explore {
+
+namespace {
+
+bool finite(double v) { return std::isfinite(v); }
+
+bool well_formed(const msg::Bid& b) {
+  if (b.robot_id == 0 || b.n_items > msg::kMaxBids) return false;
+  for (std::size_t k = 0; k < b.n_items; ++k) {
+    const msg::BidItem& it = b.items[k];
+    if (!finite(it.x) || !finite(it.y) || !finite(it.gain) || !finite(it.cost)) return false;
+    if (!finite(it.igr_min_x) || !finite(it.igr_min_y) || !finite(it.igr_max_x) || !finite(it.igr_max_y)) return false;
+    if (it.gain < 0 || it.cost < 0 || it.igr_min_x > it.igr_max_x || it.igr_min_y > it.igr_max_y) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+TaskAllocator::TaskAllocator(AllocatorConfig config) : config_(std::move(config)) { validate(config_); }
+
+TaskAllocator::Robot& TaskAllocator::robot(std::uint16_t id) { return robots_[id]; }
+
+void TaskAllocator::schedule_round(Nanos at, bool full) {
+  round_due_ = round_due_ ? std::min(*round_due_, at) : at;
+  full_round_ = full_round_ || full;
+}
+
+void TaskAllocator::start_task(Robot& r, msg::TaskKind kind, Vec2 target, Nanos now) {
+  r.kind = kind;
+  r.task_id = next_task_id_++;
+  r.target = target;
+  r.active = kind != msg::TaskKind::kIdle;
+  r.best_dist = std::numeric_limits<double>::infinity();
+  r.last_progress = now;  // no pose yet counts as no progress from the assignment on
+}
+
+bool TaskAllocator::on_bid(const msg::Bid& bid, Nanos now) {
+  if (!well_formed(bid)) {
+    ++counters_.bids_rejected;
+    return false;
+  }
+  ++counters_.bids_received;
+  Robot& r = robot(bid.robot_id);
+  r.bid = bid;
+  r.bid_fresh = true;
+  if (!round_due_) round_due_ = now + config_.bid_wait;  // later bids join this round
+  if (explored_) {
+    const bool gain = std::any_of(bid.items.begin(), bid.items.begin() + bid.n_items,
+                                  [&](const msg::BidItem& it) { return it.gain > config_.min_gain; });
+    if (gain) {  // the map changed (a door opened, a robot joined): explore again
+      explored_ = false;
+      ++counters_.explorations_resumed;
+      for (auto& [id, other] : robots_) {
+        if (other.mode == Mode::kHome) {
+          other.mode = Mode::kPool;
+          other.active = false;
+        }
+      }
+    }
+  }
+  return true;
+}
+
+void TaskAllocator::on_robot_pose(std::uint16_t id, Vec2 global, Nanos now) {
+  if (id == 0 || !finite(global.x()) || !finite(global.y())) return;
+  Robot& r = robot(id);
+  r.have_pose = true;
+  r.pose = global;
+  if (!r.active) return;
+  const double dist = (global - r.target).norm();
+  if (dist < r.best_dist - config_.progress_step_m) {
+    r.best_dist = dist;
+    r.last_progress = now;
+  }
+}
+
+void TaskAllocator::on_link(std::uint16_t id, bool alive, Nanos now) {
+  if (id == 0) return;
+  Robot& r = robot(id);
+  if (alive == r.alive) return;
+  r.alive = alive;
+  if (!alive) {
+    ++counters_.link_losses;
+    if (r.active && r.mode == Mode::kPool && r.kind == msg::TaskKind::kExplore) {
+      ++counters_.tasks_released;
+      schedule_round(now, true);  // its frontier is free: the others may take it
+    }
+    if (r.active && r.mode == Mode::kVisit) ++counters_.visits_failed;
+    r.active = false;
+    r.mode = Mode::kPool;
+    r.bid.reset();  // computed before the loss; it bids again when it is back
+    r.bid_fresh = false;
+    return;
+  }
+  // Back: whatever it was doing may have been given to another robot. Stop it; it is
+  // assigned again from its next bid.
+  start_task(r, msg::TaskKind::kIdle, Vec2::Zero(), now);
+}
+
+bool TaskAllocator::request_visit(std::uint16_t id, Vec2 target, Nanos now) {
+  if (id == 0 || !finite(target.x()) || !finite(target.y()) || !robot(id).alive) {
+    ++counters_.visits_rejected;
+    return false;
+  }
+  Robot& r = robot(id);
+  if (r.active && r.mode == Mode::kPool && r.kind == msg::TaskKind::kExplore) schedule_round(now, true);  // cover for it
+  r.mode = Mode::kVisit;
+  start_task(r, msg::TaskKind::kGoto, target, now);
+  ++counters_.visits_requested;
+  return true;
+}
+
+bool TaskAllocator::barred(std::uint16_t id, double x, double y, Nanos now) const {
+  return std::any_of(bars_.begin(), bars_.end(), [&](const Bar& b) {
+    return b.robot == id && now < b.until && (b.at - Vec2(x, y)).norm() <= config_.same_frontier_m;
+  });
+}
+
+void TaskAllocator::monitor(Nanos now) {
+  const auto expired = std::remove_if(bars_.begin(), bars_.end(), [&](const Bar& b) { return now >= b.until; });
+  counters_.bars_expired += static_cast<std::uint64_t>(bars_.end() - expired);
+  bars_.erase(expired, bars_.end());
+
+  for (auto& [id, r] : robots_) {
+    if (!r.alive || !r.active) continue;
+    const bool arrived = r.have_pose && (r.pose - r.target).norm() <= config_.arrival_radius_m;
+    if (arrived) {
+      r.active = false;
+      if (r.mode == Mode::kPool) ++counters_.arrivals;
+      if (r.mode == Mode::kVisit) ++counters_.visits_arrived;
+      if (r.mode != Mode::kHome) {
+        // Back in the pool, assigned from its next bid: the latest one was computed short
+        // of the target and still offers the frontier it is now standing on.
+        r.mode = Mode::kPool;
+        r.bid.reset();
+        r.bid_fresh = false;
+      }
+      continue;
+    }
+    if (now - r.last_progress < config_.no_progress_timeout) continue;
+    ++counters_.timeouts;
+    r.active = false;
+    switch (r.mode) {
+      case Mode::kPool:  // take it back, bar the frontier for this robot, reassign everyone
+        bars_.push_back({id, r.target, now + config_.bar_duration});
+        ++counters_.bars_set;
+        schedule_round(now, true);
+        break;
+      case Mode::kVisit:  // the visit failed: back to the pool with its latest bid
+        ++counters_.visits_failed;
+        r.mode = Mode::kPool;
+        schedule_round(now, false);
+        break;
+      case Mode::kHome:
+        start_task(r, msg::TaskKind::kIdle, Vec2::Zero(), now);
+        break;
+    }
+  }
+}
+
+void TaskAllocator::run_round(Nanos now) {
+  ++counters_.rounds;
+  struct Candidate {
+    std::uint16_t robot;
+    const msg::BidItem* item;
+    bool hysteresis;
+  };
+  std::vector<std::uint16_t> unassigned;
+  std::vector<Rect> assigned;  // IGRs of the tasks assigned so far (R in the seed)
+  std::vector<Candidate> candidates;
+  for (auto& [id, r] : robots_) {
+    if (!r.alive || r.mode != Mode::kPool) continue;
+    const bool on_explore = r.active && r.kind == msg::TaskKind::kExplore;
+    const bool takes_part = r.bid && (full_round_ || !r.active || r.bid_fresh);
+    if (!takes_part) {
+      if (on_explore) assigned.push_back(r.igr);  // continuing tasks count as assigned
+      continue;
+    }
+    unassigned.push_back(id);
+    for (std::size_t k = 0; k < r.bid->n_items; ++k) {
+      const msg::BidItem& it = r.bid->items[k];
+      if (barred(id, it.x, it.y, now)) continue;
+      candidates.push_back({id, &it, on_explore && contains(r.igr, it.x, it.y)});
+    }
+  }
+
+  std::map<std::uint16_t, const msg::BidItem*> chosen;
+  while (!unassigned.empty()) {
+    const Candidate* best = nullptr;
+    double best_u = 0;
+    for (const Candidate& c : candidates) {
+      if (std::find(unassigned.begin(), unassigned.end(), c.robot) == unassigned.end()) continue;
+      const double d = config_.coordinated ? overlap_fraction(igr_of(*c.item), assigned) : 0.0;
+      const double gain = (1.0 - d) * c.item->gain;
+      if (!(gain > config_.min_gain)) continue;  // the threshold is on the discounted gain, before hysteresis
+      // Hysteresis divides by a ratio < 1: it raises the gain of the robot's own region,
+      // so a competing frontier must beat it by the margin before the robot switches.
+      const double u = (c.hysteresis ? gain / config_.hysteresis_ratio : gain) - config_.cells_per_metre * c.item->cost;
+      if (best == nullptr || u > best_u) {  // strict: ties go to the lower robot id, then the earlier item
+        best = &c;
+        best_u = u;
+      }
+    }
+    if (best == nullptr) break;
+    chosen[best->robot] = best->item;
+    assigned.push_back(igr_of(*best->item));
+    unassigned.erase(std::find(unassigned.begin(), unassigned.end(), best->robot));
+  }
+
+  for (auto& [id, r] : robots_) {
+    if (!r.alive || r.mode != Mode::kPool || !r.bid || !(full_round_ || !r.active || r.bid_fresh)) continue;
+    r.bid_fresh = false;
+    const bool on_explore = r.active && r.kind == msg::TaskKind::kExplore;
+    const auto it = chosen.find(id);
+    if (it == chosen.end()) {
+      if (r.kind != msg::TaskKind::kIdle || r.task_id == 0 || r.active) {
+        start_task(r, msg::TaskKind::kIdle, Vec2::Zero(), now);
+        ++counters_.idles;
+      }
+      continue;
+    }
+    const msg::BidItem& item = *it->second;
+    if (on_explore && (Vec2(item.x, item.y) - r.target).norm() <= config_.same_frontier_m) {
+      r.igr = igr_of(item);  // same frontier, fresher region; progress monitor untouched
+      ++counters_.tasks_kept;
+      continue;
+    }
+    if (on_explore) ++counters_.switches;
+    start_task(r, msg::TaskKind::kExplore, Vec2(item.x, item.y), now);
+    r.igr = igr_of(item);
+    ++counters_.explore_assigned;
+  }
+  round_due_.reset();
+  full_round_ = false;
+}
+
+bool TaskAllocator::check_explored(Nanos now) {
+  if (explored_ || round_due_) return false;
+  bool any = false;
+  for (const auto& [id, r] : robots_) {
+    if (!r.alive) continue;
+    any = true;
+    if (r.active || !r.bid) return false;  // still working, or not yet reassessed since it arrived
+    for (std::size_t k = 0; k < r.bid->n_items; ++k) {
+      if (r.bid->items[k].gain > config_.min_gain) return false;
+    }
+  }
+  if (!any) return false;
+  explored_ = true;
+  ++counters_.explored_reports;
+  for (auto& [id, r] : robots_) {
+    if (!r.alive) continue;
+    const auto home = config_.home.find(id);
+    if (home != config_.home.end()) {
+      r.mode = Mode::kHome;
+      start_task(r, msg::TaskKind::kGoto, home->second, now);
+      ++counters_.homes_sent;
+    } else if (r.kind != msg::TaskKind::kIdle || r.task_id == 0) {
+      start_task(r, msg::TaskKind::kIdle, Vec2::Zero(), now);
+    }
+  }
+  return true;
+}
+
+void TaskAllocator::emit(Nanos now, std::vector<msg::TaskAssignment>* out) {
+  for (auto& [id, r] : robots_) {
+    if (!r.alive || r.task_id == 0 || r.task_id == r.sent_task_id) continue;
+    msg::TaskAssignment a;
+    a.robot_id = id;
+    a.seq = next_seq_++;
+    a.task_id = r.task_id;
+    a.issued = now;
+    a.kind = r.kind;
+    a.target_x = r.target.x();
+    a.target_y = r.target.y();
+    out->push_back(a);
+    r.sent_task_id = r.task_id;
+    ++counters_.assignments_emitted;
+  }
+}
+
+bool TaskAllocator::tick(Nanos now, std::vector<msg::TaskAssignment>* out) {
+  monitor(now);
+  if (round_due_ && now >= *round_due_) run_round(now);
+  const bool ended = check_explored(now);
+  emit(now, out);
+  return ended;
+}
+
+std::optional<TaskAllocator::TaskView> TaskAllocator::task(std::uint16_t id) const {
+  const auto it = robots_.find(id);
+  if (it == robots_.end()) return std::nullopt;
+  return TaskView{it->second.kind, it->second.task_id, it->second.target, it->second.active};
+}
+
+}  // namespace cairn::explore

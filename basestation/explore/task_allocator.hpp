@@ -1,0 +1,118 @@
+// The base's exploration executive (seed §4, issue 15 item 2): greedy task allocation on
+// the robots' frontier bids, with the discount by overlap of information-gain regions,
+// hysteresis, task monitoring, user visit requests and the end of exploration.
+// Pure and deterministic: no DDS, no clock reads; every call takes the time `now`, so a
+// test or cairn-sim drives it on simulated time. The DDS edge is not part of this.
+//
+// The algorithm as built, and the definitions chosen, are in docs/explore-executive.md.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <vector>
+
+#include "basestation/explore/allocator_config.hpp"
+#include "basestation/explore/igr_overlap.hpp"
+#include "common/clock.hpp"
+#include "common/messages.hpp"
+#include "common/se2.hpp"
+
+namespace cairn::explore {
+
+struct AllocatorCounters {
+  std::uint64_t bids_received = 0, bids_rejected = 0;
+  std::uint64_t rounds = 0;
+  std::uint64_t explore_assigned = 0;  // new explore tasks (a kept task is not counted)
+  std::uint64_t tasks_kept = 0;        // a round chose the robot's current frontier again
+  std::uint64_t switches = 0;          // a robot on an explore task was given another frontier
+  std::uint64_t idles = 0;             // robots told to idle by a round
+  std::uint64_t arrivals = 0;          // explore targets reached
+  std::uint64_t timeouts = 0;          // tasks taken back for no progress (explore and visit)
+  std::uint64_t bars_set = 0, bars_expired = 0;
+  std::uint64_t link_losses = 0, tasks_released = 0;  // tasks given back by a lost link
+  std::uint64_t visits_requested = 0, visits_rejected = 0, visits_arrived = 0, visits_failed = 0;
+  std::uint64_t explored_reports = 0, explorations_resumed = 0;
+  std::uint64_t homes_sent = 0;
+  std::uint64_t assignments_emitted = 0;
+};
+
+class TaskAllocator {
+ public:
+  explicit TaskAllocator(AllocatorConfig config);
+
+  /// A robot's latest bid replaces its previous one. The first bid while no round is
+  /// pending schedules one at now + bid_wait. A malformed bid (too many items, a
+  /// non-finite or negative value, an inverted rectangle, robot 0) is refused and counted.
+  bool on_bid(const msg::Bid& bid, Nanos now);
+  /// The robot's global position (the fusion's estimate), for progress and arrival.
+  void on_robot_pose(std::uint16_t robot, Vec2 global, Nanos now);
+  /// Link state from the DDS edge (liveliness). A lost robot gives its task back.
+  void on_link(std::uint16_t robot, bool alive, Nanos now);
+  /// "Robot r, visit (x, y)": r's task ends, the others are reassigned, r goes there and
+  /// returns to the pool when it arrives or makes no progress. false if r's link is lost.
+  bool request_visit(std::uint16_t robot, Vec2 target, Nanos now);
+
+  /// Monitoring, the pending round when due, the end of exploration; appends to *out an
+  /// assignment for every robot whose task changed. Returns true on the tick on which
+  /// exploration ended (once per end; a later bid with gain resumes exploration).
+  bool tick(Nanos now, std::vector<msg::TaskAssignment>* out);
+
+  bool explored() const { return explored_; }
+  const AllocatorCounters& counters() const { return counters_; }
+  const AllocatorConfig& config() const { return config_; }
+
+  /// What the executive currently holds for a robot (for tests, logs and the status line).
+  struct TaskView {
+    msg::TaskKind kind = msg::TaskKind::kIdle;
+    std::uint32_t task_id = 0;  // 0: never told anything
+    Vec2 target = Vec2::Zero();
+    bool active = false;  // being monitored (explore, visit or going home)
+  };
+  std::optional<TaskView> task(std::uint16_t robot) const;
+
+ private:
+  enum class Mode { kPool, kVisit, kHome };
+  struct Robot {
+    bool alive = true;
+    bool have_pose = false;
+    Vec2 pose = Vec2::Zero();
+    std::optional<msg::Bid> bid;
+    bool bid_fresh = false;  // not yet used by a round
+    Mode mode = Mode::kPool;
+    // The latest decision for this robot (what it is, or is about to be, told).
+    msg::TaskKind kind = msg::TaskKind::kIdle;
+    std::uint32_t task_id = 0;
+    Vec2 target = Vec2::Zero();
+    Rect igr;  // of the explore task's frontier, when kind == kExplore
+    bool active = false;
+    double best_dist = 0;  // progress monitor
+    Nanos last_progress = 0;
+    std::uint32_t sent_task_id = 0;
+  };
+  struct Bar {
+    std::uint16_t robot;
+    Vec2 at;
+    Nanos until;
+  };
+
+  Robot& robot(std::uint16_t id);
+  void schedule_round(Nanos at, bool full);
+  void start_task(Robot& r, msg::TaskKind kind, Vec2 target, Nanos now);
+  void monitor(Nanos now);
+  void run_round(Nanos now);
+  bool barred(std::uint16_t robot, double x, double y, Nanos now) const;
+  bool check_explored(Nanos now);
+  void emit(Nanos now, std::vector<msg::TaskAssignment>* out);
+
+  AllocatorConfig config_;
+  std::map<std::uint16_t, Robot> robots_;  // ordered: rounds and emission are deterministic
+  std::vector<Bar> bars_;
+  std::optional<Nanos> round_due_;
+  bool full_round_ = false;  // every pool robot takes part, not only unassigned / new-bid ones
+  bool explored_ = false;
+  std::uint32_t next_task_id_ = 1, next_seq_ = 1;
+  AllocatorCounters counters_;
+};
+
+}  // namespace cairn::explore

@@ -1,0 +1,382 @@
+// The exploration executive driven with hand-made bids on simulated time (plain Nanos, no
+// sleeps): the IGR-overlap discount, hysteresis, the threshold, the wait for bids, a user
+// visit, no-progress take-back with an expiring bar, link loss and the end of exploration.
+#include "basestation/explore/task_allocator.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <initializer_list>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace cairn::explore {
+namespace {
+
+using msg::TaskKind;
+
+Nanos sec(double s) { return static_cast<Nanos>(std::llround(s * 1e9)); }
+
+msg::BidItem item(double x, double y, double gain, double cost, Rect igr) {
+  msg::BidItem it;
+  it.x = x;
+  it.y = y;
+  it.gain = gain;
+  it.cost = cost;
+  it.igr_min_x = igr.min_x;
+  it.igr_min_y = igr.min_y;
+  it.igr_max_x = igr.max_x;
+  it.igr_max_y = igr.max_y;
+  return it;
+}
+
+msg::Bid bid(std::uint16_t robot, std::initializer_list<msg::BidItem> items) {
+  msg::Bid b;
+  b.robot_id = robot;
+  for (const auto& it : items) b.items[b.n_items++] = it;
+  return b;
+}
+
+AllocatorConfig test_config() {
+  AllocatorConfig c;
+  c.bid_wait = sec(0.5);
+  c.cells_per_metre = 1.0;
+  c.min_gain = 20;
+  return c;
+}
+
+// Runs one tick and returns what it emitted.
+std::vector<msg::TaskAssignment> tick(TaskAllocator& a, Nanos now, bool* ended = nullptr) {
+  std::vector<msg::TaskAssignment> out;
+  const bool e = a.tick(now, &out);
+  if (ended != nullptr) *ended = e;
+  return out;
+}
+
+const msg::TaskAssignment* for_robot(const std::vector<msg::TaskAssignment>& out, std::uint16_t robot) {
+  for (const auto& a : out) {
+    if (a.robot_id == robot) return &a;
+  }
+  return nullptr;
+}
+
+void expect_task(const std::vector<msg::TaskAssignment>& out, std::uint16_t robot, TaskKind kind, double x, double y) {
+  const msg::TaskAssignment* a = for_robot(out, robot);
+  ASSERT_NE(a, nullptr) << "no assignment for robot " << robot;
+  EXPECT_EQ(a->kind, kind) << "robot " << robot;
+  EXPECT_DOUBLE_EQ(a->target_x, x) << "robot " << robot;
+  EXPECT_DOUBLE_EQ(a->target_y, y) << "robot " << robot;
+}
+
+TEST(IgrOverlap, FractionOfTheUnionHandComputed) {
+  const Rect j{0, 0, 4, 4};  // area 16
+  const std::vector<Rect> half{{2, 0, 6, 4}};
+  EXPECT_DOUBLE_EQ(overlap_fraction(j, half), 0.5);  // 2 x 4 = 8 of 16
+  // Two assigned regions overlapping each other: the union [0,3]x[0,4] = 12 of 16, not the
+  // sum 8 + 8 = 16 (which would discount the frontier away entirely).
+  const std::vector<Rect> two{{0, 0, 2, 4}, {1, 0, 3, 4}};
+  EXPECT_DOUBLE_EQ(overlap_fraction(j, two), 0.75);
+  EXPECT_DOUBLE_EQ(union_area(two), 12.0);
+  const std::vector<Rect> far{{10, 10, 12, 12}};
+  EXPECT_DOUBLE_EQ(overlap_fraction(j, far), 0.0);
+  EXPECT_DOUBLE_EQ(overlap_fraction(j, {}), 0.0);
+  // A degenerate (zero-area) IGR is covered when its centre is.
+  EXPECT_DOUBLE_EQ(overlap_fraction(Rect{1, 1, 1, 1}, half), 0.0);
+  EXPECT_DOUBLE_EQ(overlap_fraction(Rect{3, 1, 3, 1}, half), 1.0);
+}
+
+// Robot 1 takes A (u = 100). Robot 2's A2 overlaps A's IGR by half: u = (1 - 0.5)·90 - 5 = 40
+// (undiscounted 85). Its B2 is far away with u = gain - 10. Bracketing B2's utility at 41 and
+// 39 checks the discounted u_j = 40 within one cell.
+TaskAllocator discount_case(bool coordinated, double b2_gain) {
+  AllocatorConfig c = test_config();
+  c.coordinated = coordinated;
+  TaskAllocator a(c);
+  a.on_bid(bid(1, {item(0, 2, 100, 0, {0, 0, 4, 4})}), 0);
+  a.on_bid(bid(2, {item(4, 2, 90, 5, {2, 0, 6, 4}), item(12, 2, b2_gain, 10, {10, 0, 14, 4})}), 0);
+  return a;
+}
+
+TEST(TaskAllocator, DiscountSendsCoordinatedRobotsToDifferentFrontiers) {
+  TaskAllocator a = discount_case(true, 51);  // B2: u = 41 > 40
+  const auto out = tick(a, sec(0.5));
+  expect_task(out, 1, TaskKind::kExplore, 0, 2);
+  expect_task(out, 2, TaskKind::kExplore, 12, 2);
+}
+
+TEST(TaskAllocator, DiscountedUtilityIsHalfTheGainMinusCost) {
+  TaskAllocator a = discount_case(true, 49);  // B2: u = 39 < 40: the half-discounted A2 still wins
+  const auto out = tick(a, sec(0.5));
+  expect_task(out, 1, TaskKind::kExplore, 0, 2);
+  expect_task(out, 2, TaskKind::kExplore, 4, 2);
+}
+
+TEST(TaskAllocator, UncoordinatedIgnoresTheOverlap) {
+  TaskAllocator a = discount_case(false, 51);  // no discount: A2 u = 85 beats B2 u = 41
+  const auto out = tick(a, sec(0.5));
+  expect_task(out, 2, TaskKind::kExplore, 4, 2);
+}
+
+TEST(TaskAllocator, UncoordinatedSendsBothToTheSameBestItemCoordinatedDoesNot) {
+  for (bool coordinated : {false, true}) {
+    AllocatorConfig c = test_config();
+    c.coordinated = coordinated;
+    TaskAllocator a(c);
+    a.on_bid(bid(1, {item(0, 0, 100, 0, {-2, -2, 2, 2})}), 0);
+    a.on_bid(bid(2, {item(0, 0, 95, 0, {-2, -2, 2, 2}), item(10, 0, 50, 0, {8, -2, 12, 2})}), 0);
+    const auto out = tick(a, sec(0.5));
+    expect_task(out, 1, TaskKind::kExplore, 0, 0);
+    if (coordinated) {
+      expect_task(out, 2, TaskKind::kExplore, 10, 0);  // same region: d = 1, gain 0
+    } else {
+      expect_task(out, 2, TaskKind::kExplore, 0, 0);
+    }
+  }
+}
+
+// Robot 1 explores A (gain 100, IGR [0,2]²). Its new bid still offers A, and B elsewhere.
+// With the ratio 0.85, A counts 100 / 0.85 = 117.6: B at 110 (it would win without
+// hysteresis, or with the ratio applied the wrong way round: 85) does not take the robot
+// away; B at 125 does.
+TEST(TaskAllocator, HysteresisKeepsTheTaskWithinTheMargin) {
+  for (double b_gain : {110.0, 125.0}) {
+    AllocatorConfig c = test_config();
+    c.cells_per_metre = 0;
+    TaskAllocator a(c);
+    a.on_bid(bid(1, {item(1, 1, 100, 0, {0, 0, 2, 2})}), 0);
+    expect_task(tick(a, sec(0.5)), 1, TaskKind::kExplore, 1, 1);
+    a.on_bid(bid(1, {item(1, 1, 100, 0, {0, 0, 2, 2}), item(10, 10, b_gain, 0, {9, 9, 11, 11})}), sec(1));
+    const auto out = tick(a, sec(1.5));
+    EXPECT_EQ(a.counters().rounds, 2u);
+    if (b_gain < 100 / 0.85) {
+      EXPECT_TRUE(out.empty()) << "kept task must not be re-sent";
+      EXPECT_EQ(a.counters().tasks_kept, 1u);
+      EXPECT_EQ(a.counters().switches, 0u);
+      EXPECT_DOUBLE_EQ(a.task(1)->target.x(), 1);
+    } else {
+      expect_task(out, 1, TaskKind::kExplore, 10, 10);
+      EXPECT_EQ(a.counters().switches, 1u);
+    }
+  }
+}
+
+TEST(TaskAllocator, ItemsAtOrBelowTheThresholdAreNeverAssigned) {
+  TaskAllocator a(test_config());  // min_gain 20
+  a.on_bid(bid(1, {item(0, 0, 20, 0, {-1, -1, 1, 1}), item(5, 0, 5, 0, {4, -1, 6, 1})}), 0);
+  const auto out = tick(a, sec(0.5));
+  expect_task(out, 1, TaskKind::kIdle, 0, 0);
+  EXPECT_EQ(a.counters().explore_assigned, 0u);
+  EXPECT_EQ(a.counters().idles, 1u);
+}
+
+TEST(TaskAllocator, ThresholdAppliesToTheDiscountedGain) {
+  for (bool coordinated : {true, false}) {
+    AllocatorConfig c = test_config();
+    c.coordinated = coordinated;
+    TaskAllocator a(c);
+    a.on_bid(bid(1, {item(2, 2, 100, 0, {0, 0, 4, 4})}), 0);
+    // 30 cells, 3/4 of its IGR inside robot 1's: 7.5 after the discount, below 20.
+    a.on_bid(bid(2, {item(3, 2, 30, 0, {1, 0, 5, 4})}), 0);
+    const auto out = tick(a, sec(0.5));
+    expect_task(out, 2, coordinated ? TaskKind::kIdle : TaskKind::kExplore, coordinated ? 0 : 3, coordinated ? 0 : 2);
+  }
+}
+
+// Robot 1 bids first and alone would take A. Robot 2's better bid on A arrives inside the
+// wait: at bid_wait both are considered together and robot 1 gets B.
+TEST(TaskAllocator, WaitsForOtherBidsThenAssignsThemTogether) {
+  AllocatorConfig c = test_config();
+  c.cells_per_metre = 0;
+  TaskAllocator a(c);
+  a.on_bid(bid(1, {item(0, 0, 100, 0, {0, 0, 4, 4}), item(20, 0, 60, 0, {18, -2, 22, 2})}), sec(1.0));
+  EXPECT_TRUE(tick(a, sec(1.1)).empty());
+  a.on_bid(bid(2, {item(0, 0, 150, 0, {0, 0, 4, 4})}), sec(1.3));
+  EXPECT_TRUE(tick(a, sec(1.3)).empty());
+  EXPECT_TRUE(tick(a, sec(1.5) - 1).empty());
+  EXPECT_EQ(a.counters().rounds, 0u);
+  const auto out = tick(a, sec(1.5));  // the first bid's time + bid_wait, not pushed back by the second
+  EXPECT_EQ(a.counters().rounds, 1u);
+  expect_task(out, 2, TaskKind::kExplore, 0, 0);
+  expect_task(out, 1, TaskKind::kExplore, 20, 0);
+  EXPECT_TRUE(tick(a, sec(2.0)).empty()) << "nothing changed, nothing sent";
+}
+
+// Two robots on A and B (robot 2's second choice: A is robot 1's region).
+TaskAllocator two_robots_on_a_and_b(AllocatorConfig c) {
+  TaskAllocator a(c);
+  a.on_bid(bid(1, {item(0, 0, 100, 0, {-2, -2, 2, 2})}), 0);
+  a.on_bid(bid(2, {item(0, 0, 90, 0, {-2, -2, 2, 2}), item(10, 0, 50, 0, {8, -2, 12, 2})}), 0);
+  const auto out = tick(a, sec(0.5));
+  expect_task(out, 1, TaskKind::kExplore, 0, 0);
+  expect_task(out, 2, TaskKind::kExplore, 10, 0);
+  return a;
+}
+
+TEST(TaskAllocator, UserVisitReassignsTheOthersAndReturnsToThePoolOnArrival) {
+  TaskAllocator a = two_robots_on_a_and_b(test_config());
+  ASSERT_TRUE(a.request_visit(1, Vec2(20, 20), sec(2)));
+  auto out = tick(a, sec(2));
+  expect_task(out, 1, TaskKind::kGoto, 20, 20);
+  expect_task(out, 2, TaskKind::kExplore, 0, 0);  // covers robot 1's frontier (90 > 50 / 0.85)
+  // Bids during the visit do not take robot 1 off it.
+  a.on_bid(bid(1, {item(30, 30, 80, 0, {28, 28, 32, 32})}), sec(3));
+  EXPECT_EQ(for_robot(tick(a, sec(3.5)), 1), nullptr);
+  a.on_robot_pose(1, Vec2(20, 20.1), sec(4));
+  EXPECT_TRUE(tick(a, sec(4)).empty());
+  EXPECT_EQ(a.counters().visits_arrived, 1u);
+  // Back in the pool: assigned from its next bid; robot 2 continues undisturbed.
+  a.on_bid(bid(1, {item(30, 30, 80, 0, {28, 28, 32, 32})}), sec(5));
+  out = tick(a, sec(5.5));
+  ASSERT_EQ(out.size(), 1u);
+  expect_task(out, 1, TaskKind::kExplore, 30, 30);
+}
+
+// After reaching its frontier a robot waits for its next bid: the latest one was computed
+// short of the target and still offers the frontier it now stands on.
+TEST(TaskAllocator, ArrivalWaitsForTheRobotsNextBid) {
+  TaskAllocator a = two_robots_on_a_and_b(test_config());
+  a.on_robot_pose(1, Vec2(0.1, 0.1), sec(2));
+  EXPECT_TRUE(tick(a, sec(2)).empty()) << "arrival itself sends nothing";
+  EXPECT_EQ(a.counters().arrivals, 1u);
+  a.on_bid(bid(2, {item(10, 0, 50, 0, {8, -2, 12, 2})}), sec(3));  // a round for robot 2's new bid
+  EXPECT_TRUE(tick(a, sec(3.5)).empty()) << "robot 1 is not sent back to the frontier it reached";
+  EXPECT_EQ(a.counters().rounds, 2u);
+  a.on_bid(bid(1, {item(0, 6, 70, 0, {-2, 4, 2, 8})}), sec(4));
+  const auto out = tick(a, sec(4.5));
+  ASSERT_EQ(out.size(), 1u);
+  expect_task(out, 1, TaskKind::kExplore, 0, 6);
+}
+
+TEST(TaskAllocator, UserVisitThatMakesNoProgressFailsBackToThePool) {
+  AllocatorConfig c = test_config();
+  c.no_progress_timeout = sec(10);
+  TaskAllocator a(c);
+  a.on_bid(bid(1, {item(5, 5, 100, 0, {4, 4, 6, 6})}), 0);
+  ASSERT_TRUE(a.request_visit(1, Vec2(20, 20), 0));
+  expect_task(tick(a, 0), 1, TaskKind::kGoto, 20, 20);
+  a.on_robot_pose(1, Vec2(0, 0), sec(1));
+  EXPECT_TRUE(tick(a, sec(11) - 1).empty());
+  const auto out = tick(a, sec(11));
+  EXPECT_EQ(a.counters().visits_failed, 1u);
+  expect_task(out, 1, TaskKind::kExplore, 5, 5);
+}
+
+// One robot on A makes no progress: taken back, A barred for it for bar_duration, sent to B.
+// While barred, a new bid preferring A leaves it on B; after the bar expires it switches.
+TEST(TaskAllocator, NoProgressTakesTheTaskBackAndTheBarExpires) {
+  AllocatorConfig c = test_config();
+  c.cells_per_metre = 0;
+  c.no_progress_timeout = sec(10);
+  c.bar_duration = sec(30);
+  TaskAllocator a(c);
+  const auto both = bid(1, {item(10, 0, 100, 0, {9, -1, 11, 1}), item(0, 10, 60, 0, {-1, 9, 1, 11})});
+  a.on_bid(both, 0);
+  expect_task(tick(a, sec(0.5)), 1, TaskKind::kExplore, 10, 0);
+  a.on_robot_pose(1, Vec2(0, 0), sec(1));
+  a.on_robot_pose(1, Vec2(0.1, 0), sec(5));  // less than progress_step_m: not progress
+  EXPECT_TRUE(tick(a, sec(11) - 1).empty());
+  expect_task(tick(a, sec(11)), 1, TaskKind::kExplore, 0, 10);
+  EXPECT_EQ(a.counters().timeouts, 1u);
+  EXPECT_EQ(a.counters().bars_set, 1u);
+  for (int k = 0; k < 6; ++k) {  // steady progress towards B, 0.5 m every 5 s, up to t = 37 s
+    a.on_robot_pose(1, Vec2(0.1, 0.5 * (k + 1)), sec(12 + 5 * k));
+    EXPECT_TRUE(tick(a, sec(12 + 5 * k)).empty());
+  }
+  a.on_bid(both, sec(38));  // A (100) would beat B (60 / 0.85 = 70.6), but A is barred until 41
+  EXPECT_TRUE(tick(a, sec(38.5)).empty());
+  EXPECT_EQ(a.counters().tasks_kept, 1u);
+  EXPECT_EQ(a.counters().bars_expired, 0u);
+  a.on_bid(both, sec(41));
+  expect_task(tick(a, sec(41.5)), 1, TaskKind::kExplore, 10, 0);
+  EXPECT_EQ(a.counters().bars_expired, 1u);
+  EXPECT_EQ(a.counters().timeouts, 1u);
+}
+
+TEST(TaskAllocator, LinkLossFreesTheTask) {
+  TaskAllocator a = two_robots_on_a_and_b(test_config());
+  a.on_link(1, false, sec(2));
+  auto out = tick(a, sec(2));
+  EXPECT_EQ(for_robot(out, 1), nullptr) << "nothing is sent to a lost robot";
+  expect_task(out, 2, TaskKind::kExplore, 0, 0);
+  EXPECT_EQ(a.counters().tasks_released, 1u);
+  EXPECT_FALSE(a.request_visit(1, Vec2(3, 3), sec(2.5)));
+  a.on_link(1, true, sec(3));
+  out = tick(a, sec(3));
+  ASSERT_EQ(out.size(), 1u);
+  expect_task(out, 1, TaskKind::kIdle, 0, 0);  // its old frontier is robot 2's now
+}
+
+TEST(TaskAllocator, EndOfExplorationReportedOnceWhenNoBidHasGain) {
+  AllocatorConfig c = test_config();
+  c.home[2] = Vec2(-1, -1);
+  TaskAllocator a(c);
+  int reports = 0;
+  bool ended = false;
+  a.on_bid(bid(1, {item(5, 0, 100, 0, {4, -1, 6, 1})}), 0);
+  a.on_bid(bid(2, {item(9, 9, 10, 0, {8, 8, 10, 10})}), 0);
+  tick(a, sec(0.5), &ended);
+  reports += ended;
+  EXPECT_FALSE(a.explored()) << "robot 1 is still on a task";
+  a.on_robot_pose(1, Vec2(5, 0.1), sec(3));
+  tick(a, sec(3), &ended);
+  reports += ended;
+  EXPECT_FALSE(a.explored()) << "robot 1 has not bid since it arrived";
+  a.on_bid(bid(1, {item(6, 0, 20, 0, {5, -1, 7, 1})}), sec(4));  // gain 20: not above min_gain
+  std::vector<msg::TaskAssignment> out;
+  for (Nanos t = sec(4); t <= sec(10); t += sec(0.25)) {
+    const auto o = tick(a, t, &ended);
+    out.insert(out.end(), o.begin(), o.end());
+    reports += ended;
+    if (t == sec(6)) a.on_bid(bid(2, {}), t);  // more bids without gain change nothing
+    if (t == sec(8)) a.on_robot_pose(2, Vec2(-1, -1), t);  // home: every robot idle, still one report
+  }
+  EXPECT_TRUE(a.explored());
+  EXPECT_EQ(reports, 1);
+  EXPECT_EQ(a.counters().explored_reports, 1u);
+  expect_task(out, 1, TaskKind::kIdle, 0, 0);
+  expect_task(out, 2, TaskKind::kGoto, -1, -1);  // configured home
+  EXPECT_EQ(out.size(), 2u);
+}
+
+TEST(TaskAllocator, ConfigErrorsNameTheParameter) {
+  const auto message = [](AllocatorConfig c) -> std::string {
+    try {
+      TaskAllocator a(c);
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "";
+  };
+  AllocatorConfig c = test_config();
+  c.hysteresis_ratio = 0;
+  EXPECT_NE(message(c).find("hysteresis_ratio"), std::string::npos);
+  c.hysteresis_ratio = 1.2;
+  EXPECT_NE(message(c).find("hysteresis_ratio"), std::string::npos);
+  c = test_config();
+  c.cells_per_metre = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(message(c).find("cells_per_metre"), std::string::npos);
+  c = test_config();
+  c.bid_wait = -1;
+  EXPECT_NE(message(c).find("bid_wait"), std::string::npos);
+  c = test_config();
+  c.no_progress_timeout = 0;
+  EXPECT_NE(message(c).find("no_progress_timeout"), std::string::npos);
+  EXPECT_EQ(message(test_config()), "");
+}
+
+TEST(TaskAllocator, MalformedBidsAreRefusedAndCounted) {
+  TaskAllocator a(test_config());
+  msg::Bid too_many = bid(1, {});
+  too_many.n_items = msg::kMaxBids + 1;
+  EXPECT_FALSE(a.on_bid(too_many, 0));
+  EXPECT_FALSE(a.on_bid(bid(1, {item(0, 0, std::nan(""), 0, {0, 0, 1, 1})}), 0));
+  EXPECT_FALSE(a.on_bid(bid(1, {item(0, 0, 50, 0, {1, 0, 0, 1})}), 0));  // inverted IGR
+  EXPECT_FALSE(a.on_bid(bid(0, {}), 0));
+  EXPECT_EQ(a.counters().bids_rejected, 4u);
+  EXPECT_TRUE(tick(a, sec(1)).empty()) << "a refused bid schedules nothing";
+}
+
+}  // namespace
+}  // namespace cairn::explore
