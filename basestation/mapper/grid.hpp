@@ -1,52 +1,13 @@
-// The central mapper's grid geometry and its three-class view (obstacle / clear /
-// unknown, the exploration paper's classes), shared by the mapper, the exporters and the
-// map-quality tool. Pure data, no I/O.
+// The central mapper's grid types: common/occupancy_grid.hpp's, under the mapper's
+// namespace (the robots' frontier bids read the same types without the base station).
 #pragma once
 
-#include <cmath>
-#include <cstdint>
-#include <vector>
-
-#include "common/se2.hpp"
+#include "common/occupancy_grid.hpp"
 
 namespace cairn::mapper {
 
-/// A rectangular grid of square cells. Cell (i, j) covers
-/// [origin_x + i·res, origin_x + (i+1)·res) × [origin_y + j·res, origin_y + (j+1)·res):
-/// i grows with x (columns), j with y (rows); (origin_x, origin_y) is the outer corner of
-/// cell (0, 0), the lower-left corner of the map (ROS map_server's `origin`).
-struct GridGeometry {
-  double resolution = 0.15;
-  double origin_x = 0, origin_y = 0;
-  int width = 0, height = 0;
-
-  std::size_t cells() const { return static_cast<std::size_t>(width) * static_cast<std::size_t>(height); }
-  bool contains(int i, int j) const { return i >= 0 && j >= 0 && i < width && j < height; }
-  std::size_t index(int i, int j) const {
-    return static_cast<std::size_t>(j) * static_cast<std::size_t>(width) + static_cast<std::size_t>(i);
-  }
-  /// The cell containing world point (x, y); false (and i, j untouched) outside the grid or for NaN.
-  bool cell_of(double x, double y, int* i, int* j) const {
-    const double fx = std::floor((x - origin_x) / resolution), fy = std::floor((y - origin_y) / resolution);
-    if (!(fx >= 0 && fy >= 0 && fx < width && fy < height)) return false;
-    *i = static_cast<int>(fx);
-    *j = static_cast<int>(fy);
-    return true;
-  }
-  Vec2 center(int i, int j) const { return {origin_x + (i + 0.5) * resolution, origin_y + (j + 0.5) * resolution}; }
-  double xmax() const { return origin_x + width * resolution; }
-  double ymax() const { return origin_y + height * resolution; }
-};
-
-enum class Cell : std::uint8_t { kUnknown = 0, kClear = 1, kObstacle = 2 };
-
-/// A classified map: one Cell per grid cell, row-major from the lower-left (index()).
-struct ClassGrid {
-  GridGeometry geometry;
-  std::vector<Cell> cells;
-
-  Cell at(int i, int j) const { return cells[geometry.index(i, j)]; }
-  Cell& at(int i, int j) { return cells[geometry.index(i, j)]; }
-};
+using cairn::Cell;
+using cairn::ClassGrid;
+using cairn::GridGeometry;
 
 }  // namespace cairn::mapper

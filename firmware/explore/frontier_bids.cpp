@@ -1,0 +1,320 @@
+#include "firmware/explore/frontier_bids.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+namespace cairn::explore {
+
+namespace {
+
+constexpr std::uint8_t kBlocked = 1;   // not traversable: not clear, or within the robot's radius of an obstacle
+constexpr std::uint8_t kSettled = 2;   // its path cost is final (reached)
+constexpr std::uint8_t kNearKept = 4;  // closer than frontier_spacing_m to a kept frontier cell
+constexpr std::uint32_t kNotInHeap = std::numeric_limits<std::uint32_t>::max();
+constexpr double kEps = 1e-9;  // in cells²: a distance exactly on a limit counts as on the limit
+
+constexpr int kDi4[4] = {1, -1, 0, 0};
+constexpr int kDj4[4] = {0, 0, 1, -1};
+
+void require(bool ok, const char* parameter, const std::string& rule, double got) {
+  if (!ok)
+    throw std::invalid_argument(std::string("FrontierBidder: ") + parameter + " " + rule + " (got " +
+                                std::to_string(got) + ")");
+}
+
+}  // namespace
+
+const char* to_string(BidStatus s) {
+  switch (s) {
+    case BidStatus::kOk: return "ok";
+    case BidStatus::kBadMap: return "bad map";
+    case BidStatus::kMapTooLarge: return "map too large";
+    case BidStatus::kRobotOutsideMap: return "robot outside the map";
+    case BidStatus::kRobotInObstacle: return "robot in an obstacle";
+    case BidStatus::kNoFrontier: return "no frontier";
+  }
+  return "?";
+}
+
+FrontierBidder::FrontierBidder(const FrontierBidderConfig& config) : config_(config) {
+  const auto& c = config;
+  require(c.max_cells > 0 && c.max_cells < kNotInHeap, "max_cells", "must be in [1, 2^32 - 1)",
+          static_cast<double>(c.max_cells));
+  require(std::isfinite(c.frontier_spacing_m) && c.frontier_spacing_m >= 0, "frontier_spacing_m",
+          "must be finite and >= 0", c.frontier_spacing_m);
+  require(std::isfinite(c.robot_radius_m) && c.robot_radius_m >= 0, "robot_radius_m", "must be finite and >= 0",
+          c.robot_radius_m);
+  require(std::isfinite(c.sensor_range_m) && c.sensor_range_m > 0, "sensor_range_m", "must be finite and > 0",
+          c.sensor_range_m);
+  require(c.max_items >= 1 && c.max_items <= msg::kMaxBids, "max_items",
+          "must be in [1, " + std::to_string(msg::kMaxBids) + "] (msg::kMaxBids)", static_cast<double>(c.max_items));
+  require(c.min_gain_cells >= 1, "min_gain_cells", "must be >= 1", static_cast<double>(c.min_gain_cells));
+  require(std::isfinite(c.gain_per_metre) && c.gain_per_metre >= 0, "gain_per_metre", "must be finite and >= 0",
+          c.gain_per_metre);
+  flags_.assign(c.max_cells, 0);
+  cost_.assign(c.max_cells, 0.0);
+  heap_.assign(c.max_cells, 0);
+  heap_pos_.assign(c.max_cells, kNotInHeap);
+  gain_stamp_.assign(c.max_cells, 0);
+  gain_queue_.assign(c.max_cells, 0);
+}
+
+BidStatus FrontierBidder::compute(const GridGeometry& g, const Cell* cells, const Pose2& robot, msg::Bid* out) {
+  out->n_items = 0;
+  stats_ = {};
+  n_best_ = 0;
+  if (cells == nullptr || g.width <= 0 || g.height <= 0 || !std::isfinite(g.resolution) || !(g.resolution > 0) ||
+      !std::isfinite(g.origin_x) || !std::isfinite(g.origin_y))
+    return BidStatus::kBadMap;
+  if (g.cells() > config_.max_cells) return BidStatus::kMapTooLarge;
+  int ri = 0, rj = 0;
+  if (!g.cell_of(robot.x, robot.y, &ri, &rj)) return BidStatus::kRobotOutsideMap;
+  const auto start = static_cast<std::uint32_t>(g.index(ri, rj));
+  if (cells[start] == Cell::kObstacle) return BidStatus::kRobotInObstacle;
+
+  mark_blocked(g, cells);
+  flood_path_cost(g, cells, start);
+
+  for (int j = 0; j < g.height; ++j)
+    for (int i = 0; i < g.width; ++i) {
+      if (!is_frontier(g, cells, i, j)) continue;
+      ++stats_.frontier_cells;
+      if (!(flags_[g.index(i, j)] & kSettled)) ++stats_.unreachable_frontier_cells;
+    }
+
+  for (std::size_t k = 0; k < n_best_; ++k) {
+    const Candidate& c = best_[k];
+    const int i = static_cast<int>(c.cell % static_cast<std::uint32_t>(g.width));
+    const int j = static_cast<int>(c.cell / static_cast<std::uint32_t>(g.width));
+    const Vec2 p = g.center(i, j);
+    msg::BidItem& item = out->items[k];
+    item.x = p.x();
+    item.y = p.y();
+    item.gain = c.gain;
+    item.cost = c.cost;
+    item.igr_min_x = g.origin_x + c.igr_i0 * g.resolution;
+    item.igr_min_y = g.origin_y + c.igr_j0 * g.resolution;
+    item.igr_max_x = g.origin_x + (c.igr_i1 + 1) * g.resolution;
+    item.igr_max_y = g.origin_y + (c.igr_j1 + 1) * g.resolution;
+  }
+  out->n_items = static_cast<std::uint16_t>(n_best_);
+  return n_best_ > 0 ? BidStatus::kOk : BidStatus::kNoFrontier;
+}
+
+// Inflation: a cell is blocked when the robot's disc at its centre would overlap an
+// obstacle cell (distance from the centre to the obstacle's square < radius). Only
+// obstacle cells with a non-obstacle 4-neighbour need stamping: the nearest obstacle
+// point of any free cell lies on such a cell's edge.
+void FrontierBidder::mark_blocked(const GridGeometry& g, const Cell* cells) {
+  const std::size_t n = g.cells();
+  for (std::size_t k = 0; k < n; ++k) flags_[k] = cells[k] == Cell::kClear ? 0 : kBlocked;
+  if (config_.robot_radius_m <= 0) return;
+  const double rc = config_.robot_radius_m / g.resolution;
+  const double rc2 = rc * rc - kEps;
+  const int reach = static_cast<int>(std::ceil(rc + 0.5));
+  for (int j = 0; j < g.height; ++j)
+    for (int i = 0; i < g.width; ++i) {
+      if (cells[g.index(i, j)] != Cell::kObstacle) continue;
+      bool boundary = false;
+      for (int d = 0; d < 4 && !boundary; ++d)
+        boundary = g.contains(i + kDi4[d], j + kDj4[d]) && cells[g.index(i + kDi4[d], j + kDj4[d])] != Cell::kObstacle;
+      if (!boundary) continue;
+      for (int dj = std::max(-reach, -j); dj <= std::min(reach, g.height - 1 - j); ++dj)
+        for (int di = std::max(-reach, -i); di <= std::min(reach, g.width - 1 - i); ++di) {
+          const double dx = std::max(std::abs(di) - 0.5, 0.0), dy = std::max(std::abs(dj) - 0.5, 0.0);
+          if (dx * dx + dy * dy < rc2) flags_[g.index(i + di, j + dj)] |= kBlocked;
+        }
+    }
+}
+
+// Dijkstra over traversable cells, 8-connected (diagonal steps cost √2·res and may not
+// cut a blocked corner). The start cell is always expanded, even when blocked by the
+// inflation or unknown, so a robot close to a wall still gets a plan. Frontier cells are
+// considered as they settle, i.e. nearest first, which makes the spacing rule keep the
+// nearest cell of each stretch of frontier.
+void FrontierBidder::flood_path_cost(const GridGeometry& g, const Cell* cells, std::uint32_t start) {
+  const std::size_t n = g.cells();
+  std::fill_n(cost_.begin(), n, std::numeric_limits<double>::infinity());
+  std::fill_n(heap_pos_.begin(), n, kNotInHeap);
+  heap_size_ = 0;
+  cost_[start] = 0;
+  heap_push_or_decrease(start);
+  const double diagonal = g.resolution * std::numbers::sqrt2;
+  const auto w = static_cast<std::uint32_t>(g.width);
+  while (heap_size_ > 0) {
+    const std::uint32_t c = heap_pop();
+    flags_[c] |= kSettled;
+    ++stats_.reached_cells;
+    consider(g, cells, c);
+    const int i = static_cast<int>(c % w), j = static_cast<int>(c / w);
+    for (int dj = -1; dj <= 1; ++dj)
+      for (int di = -1; di <= 1; ++di) {
+        if ((di == 0 && dj == 0) || !g.contains(i + di, j + dj)) continue;
+        const std::size_t nb = g.index(i + di, j + dj);
+        if (flags_[nb] & (kBlocked | kSettled)) continue;
+        const bool diag = di != 0 && dj != 0;
+        if (diag && ((flags_[g.index(i + di, j)] & kBlocked) || (flags_[g.index(i, j + dj)] & kBlocked))) continue;
+        const double nc = cost_[c] + (diag ? diagonal : g.resolution);
+        if (nc < cost_[nb]) {
+          cost_[nb] = nc;
+          heap_push_or_decrease(static_cast<std::uint32_t>(nb));
+        }
+      }
+  }
+}
+
+// A frontier cell: clear, with an unknown 4-neighbour (4, not 8: an unknown cell seen only
+// diagonally, past the corner of a wall, is not an opening).
+bool FrontierBidder::is_frontier(const GridGeometry& g, const Cell* cells, int i, int j) const {
+  if (cells[g.index(i, j)] != Cell::kClear) return false;
+  for (int d = 0; d < 4; ++d)
+    if (g.contains(i + kDi4[d], j + kDj4[d]) && cells[g.index(i + kDi4[d], j + kDj4[d])] == Cell::kUnknown)
+      return true;
+  return false;
+}
+
+void FrontierBidder::consider(const GridGeometry& g, const Cell* cells, std::uint32_t cell) {
+  const auto w = static_cast<std::uint32_t>(g.width);
+  if ((flags_[cell] & kNearKept) || !is_frontier(g, cells, static_cast<int>(cell % w), static_cast<int>(cell / w)))
+    return;
+  mark_spacing(g, cell);
+  ++stats_.candidates;
+  Candidate c;
+  c.cell = cell;
+  c.cost = cost_[cell];
+  measure_gain(g, cells, &c);
+  if (c.gain < config_.min_gain_cells) {
+    ++stats_.below_min_gain;
+    return;
+  }
+  c.utility = static_cast<double>(c.gain) - config_.gain_per_metre * c.cost;
+  offer(c);
+}
+
+// Breadth-first over unknown cells, 4-connected (an 8-connected fill would leak through a
+// diagonal line of wall cells), seeded from the frontier cell's unknown 4-neighbours,
+// within sensor_range_m of the frontier cell's centre; clear and obstacle cells stop it.
+void FrontierBidder::measure_gain(const GridGeometry& g, const Cell* cells, Candidate* c) {
+  if (++gain_epoch_ == 0) {  // wrapped: forget every old stamp
+    std::fill(gain_stamp_.begin(), gain_stamp_.end(), 0);
+    gain_epoch_ = 1;
+  }
+  const auto w = static_cast<std::uint32_t>(g.width);
+  const int fi = static_cast<int>(c->cell % w), fj = static_cast<int>(c->cell / w);
+  const double range = config_.sensor_range_m / g.resolution;
+  const double range2 = range * range + kEps;
+  std::size_t head = 0, tail = 0;
+  auto visit = [&](int i, int j) {
+    if (!g.contains(i, j)) return;
+    const std::size_t k = g.index(i, j);
+    if (cells[k] != Cell::kUnknown || gain_stamp_[k] == gain_epoch_) return;
+    const double di = i - fi, dj = j - fj;
+    if (di * di + dj * dj > range2) return;
+    gain_stamp_[k] = gain_epoch_;
+    gain_queue_[tail++] = static_cast<std::uint32_t>(k);
+  };
+  for (int d = 0; d < 4; ++d) visit(fi + kDi4[d], fj + kDj4[d]);
+  c->igr_i0 = c->igr_j0 = std::numeric_limits<int>::max();
+  c->igr_i1 = c->igr_j1 = std::numeric_limits<int>::min();
+  while (head < tail) {
+    const std::uint32_t k = gain_queue_[head++];
+    const int i = static_cast<int>(k % w), j = static_cast<int>(k / w);
+    c->igr_i0 = std::min(c->igr_i0, i);
+    c->igr_j0 = std::min(c->igr_j0, j);
+    c->igr_i1 = std::max(c->igr_i1, i);
+    c->igr_j1 = std::max(c->igr_j1, j);
+    for (int d = 0; d < 4; ++d) visit(i + kDi4[d], j + kDj4[d]);
+  }
+  c->gain = static_cast<std::uint32_t>(tail);
+  stats_.gain_cells_visited += tail;
+}
+
+void FrontierBidder::mark_spacing(const GridGeometry& g, std::uint32_t cell) {
+  const double s = config_.frontier_spacing_m / g.resolution;
+  const double s2 = s * s - kEps;
+  const int reach = static_cast<int>(std::ceil(s));
+  const auto w = static_cast<std::uint32_t>(g.width);
+  const int i = static_cast<int>(cell % w), j = static_cast<int>(cell / w);
+  for (int dj = std::max(-reach, -j); dj <= std::min(reach, g.height - 1 - j); ++dj)
+    for (int di = std::max(-reach, -i); di <= std::min(reach, g.width - 1 - i); ++di)
+      if (di * di + dj * dj < s2) flags_[g.index(i + di, j + dj)] |= kNearKept;
+}
+
+// Keeps the max_items best candidates, best first: higher utility, then lower cost, then
+// lower cell index (deterministic).
+void FrontierBidder::offer(const Candidate& c) {
+  auto better = [](const Candidate& a, const Candidate& b) {
+    if (a.utility != b.utility) return a.utility > b.utility;
+    if (a.cost != b.cost) return a.cost < b.cost;
+    return a.cell < b.cell;
+  };
+  std::size_t k = n_best_;
+  if (n_best_ < config_.max_items) {
+    ++n_best_;
+  } else if (better(c, best_[n_best_ - 1])) {
+    k = n_best_ - 1;
+  } else {
+    return;
+  }
+  while (k > 0 && better(c, best_[k - 1])) {
+    best_[k] = best_[k - 1];
+    --k;
+  }
+  best_[k] = c;
+}
+
+void FrontierBidder::heap_push_or_decrease(std::uint32_t cell) {  // cost_[cell] already lowered
+  if (heap_pos_[cell] == kNotInHeap) {
+    heap_[heap_size_] = cell;
+    heap_pos_[cell] = static_cast<std::uint32_t>(heap_size_);
+    ++heap_size_;
+  }
+  sift_up(heap_pos_[cell]);
+}
+
+std::uint32_t FrontierBidder::heap_pop() {
+  const std::uint32_t top = heap_[0];
+  heap_pos_[top] = kNotInHeap;
+  if (--heap_size_ > 0) {
+    heap_[0] = heap_[heap_size_];
+    heap_pos_[heap_[0]] = 0;
+    sift_down(0);
+  }
+  return top;
+}
+
+void FrontierBidder::sift_up(std::size_t k) {
+  const std::uint32_t cell = heap_[k];
+  const double c = cost_[cell];
+  while (k > 0) {
+    const std::size_t parent = (k - 1) / 2;
+    if (cost_[heap_[parent]] <= c) break;
+    heap_[k] = heap_[parent];
+    heap_pos_[heap_[k]] = static_cast<std::uint32_t>(k);
+    k = parent;
+  }
+  heap_[k] = cell;
+  heap_pos_[cell] = static_cast<std::uint32_t>(k);
+}
+
+void FrontierBidder::sift_down(std::size_t k) {
+  const std::uint32_t cell = heap_[k];
+  const double c = cost_[cell];
+  for (;;) {
+    std::size_t child = 2 * k + 1;
+    if (child >= heap_size_) break;
+    if (child + 1 < heap_size_ && cost_[heap_[child + 1]] < cost_[heap_[child]]) ++child;
+    if (cost_[heap_[child]] >= c) break;
+    heap_[k] = heap_[child];
+    heap_pos_[heap_[k]] = static_cast<std::uint32_t>(k);
+    k = child;
+  }
+  heap_[k] = cell;
+  heap_pos_[cell] = static_cast<std::uint32_t>(k);
+}
+
+}  // namespace cairn::explore

@@ -1,0 +1,103 @@
+// A robot's frontier bid (the exploration seed's §4, issue 15 item 1): from a classified
+// global map and the robot's global pose, the frontier cells it can reach, the path cost
+// to each (one Dijkstra flood fill), the information each may reveal (a flood fill over
+// the unknown cells within sensor range), and the best items as a msg::Bid.
+// Pure computation: every buffer is sized from the configuration at construction, and
+// compute() allocates nothing; its work is bounded by max_cells (docs/explore.md).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "common/messages.hpp"
+#include "common/occupancy_grid.hpp"
+#include "common/se2.hpp"
+
+namespace cairn::explore {
+
+struct FrontierBidderConfig {
+  std::size_t max_cells = 0;         // the largest map accepted (width × height); sizes every buffer
+  double frontier_spacing_m = 0.30;  // kept frontier cells are at least this far apart (centre to centre)
+  double robot_radius_m = 0.30;      // obstacle inflation for the path cost
+  double sensor_range_m = 4.0;       // nominal range: unknown cells counted within it of the frontier cell
+  std::size_t max_items = msg::kMaxBids;  // items per bid, <= msg::kMaxBids
+  std::size_t min_gain_cells = 1;    // items expected to reveal fewer unknown cells are not bid
+  double gain_per_metre = 10.0;      // ranking exchange rate: cells of gain worth one metre of travel
+};
+
+enum class BidStatus : std::uint8_t {
+  kOk,                // out holds >= 1 item
+  kBadMap,            // no cells, non-positive size or resolution, non-finite origin
+  kMapTooLarge,       // width × height > max_cells: refused, nothing touched
+  kRobotOutsideMap,   // the pose is not over a cell (or not finite)
+  kRobotInObstacle,   // the robot's cell is an obstacle
+  kNoFrontier,        // no reachable frontier cell with gain >= min_gain_cells
+};
+
+const char* to_string(BidStatus s);
+
+/// What the last compute() saw; the unreachable count is what issue 15 asks the base to
+/// report instead of chasing frontiers the robot cannot fit through.
+struct BidStats {
+  std::size_t reached_cells = 0;               // settled by the path-cost flood fill
+  std::size_t frontier_cells = 0;              // clear cells with an unknown 4-neighbour
+  std::size_t unreachable_frontier_cells = 0;  // of those, not reached (never bid)
+  std::size_t candidates = 0;                  // reached frontier cells kept by the spacing rule
+  std::size_t below_min_gain = 0;              // candidates dropped for too little gain
+  std::size_t gain_cells_visited = 0;          // the information-gain floods' total work
+};
+
+class FrontierBidder {
+ public:
+  /// Throws std::invalid_argument naming the offending parameter.
+  explicit FrontierBidder(const FrontierBidderConfig& config);
+
+  /// Fills out->n_items and out->items (global frame; robot_id, seq and map_version are the
+  /// caller's). `cells` holds geometry.cells() classes, row-major (GridGeometry::index).
+  /// On any status but kOk, out->n_items is 0. No heap allocation.
+  BidStatus compute(const GridGeometry& geometry, const Cell* cells, const Pose2& robot_global, msg::Bid* out);
+
+  const BidStats& stats() const { return stats_; }
+  const FrontierBidderConfig& config() const { return config_; }
+
+ private:
+  struct Candidate {
+    std::uint32_t cell = 0;
+    double cost = 0;
+    std::uint32_t gain = 0;
+    int igr_i0 = 0, igr_j0 = 0, igr_i1 = 0, igr_j1 = 0;  // inclusive cell bounds
+    double utility = 0;
+  };
+
+  void mark_blocked(const GridGeometry& g, const Cell* cells);
+  void flood_path_cost(const GridGeometry& g, const Cell* cells, std::uint32_t start);
+  bool is_frontier(const GridGeometry& g, const Cell* cells, int i, int j) const;
+  void consider(const GridGeometry& g, const Cell* cells, std::uint32_t cell);
+  void measure_gain(const GridGeometry& g, const Cell* cells, Candidate* c);
+  void mark_spacing(const GridGeometry& g, std::uint32_t cell);
+  void offer(const Candidate& c);
+
+  // The Dijkstra queue: a binary min-heap of cell indices keyed by cost_, with each cell's
+  // heap slot in heap_pos_ for decrease-key, so it never holds more than max_cells entries.
+  void heap_push_or_decrease(std::uint32_t cell);
+  std::uint32_t heap_pop();
+  void sift_up(std::size_t k);
+  void sift_down(std::size_t k);
+
+  FrontierBidderConfig config_;
+  BidStats stats_;
+  std::vector<std::uint8_t> flags_;        // per cell: kBlocked | kSettled | kNearKept
+  std::vector<double> cost_;               // path cost (m) from the robot's cell
+  std::vector<std::uint32_t> heap_;        // Dijkstra's open set
+  std::vector<std::uint32_t> heap_pos_;    // slot in heap_, kNotInHeap when not queued
+  std::vector<std::uint32_t> gain_stamp_;  // gain flood: visited when == gain_epoch_
+  std::vector<std::uint32_t> gain_queue_;  // gain flood's FIFO
+  std::size_t heap_size_ = 0;
+  std::uint32_t gain_epoch_ = 0;
+  std::array<Candidate, msg::kMaxBids> best_{};  // sorted, best first
+  std::size_t n_best_ = 0;
+};
+
+}  // namespace cairn::explore

@@ -1,0 +1,360 @@
+// FrontierBidder on hand-made maps whose answers are derived by hand or by a slow
+// reference written independently here: frontier thinning, path cost, information gain
+// and its rectangle, unreachable frontiers behind narrow gaps, walls stopping both floods,
+// ranking and the item cap, config and map refusals, and no allocation per bid.
+#include "firmware/explore/frontier_bids.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#ifndef CAIRN_SANITIZED
+#include "tests/support/alloc_counter.hpp"
+#endif
+
+namespace cairn::explore {
+namespace {
+
+constexpr double kRes = 0.15;
+
+struct Map {
+  GridGeometry g;
+  std::vector<Cell> c;
+
+  Map(int w, int h, double ox = 0, double oy = 0) : g{kRes, ox, oy, w, h}, c(g.cells(), Cell::kUnknown) {}
+  void fill(int i0, int j0, int i1, int j1, Cell v) {  // inclusive
+    for (int j = j0; j <= j1; ++j)
+      for (int i = i0; i <= i1; ++i) c[g.index(i, j)] = v;
+  }
+  Cell at(int i, int j) const { return c[g.index(i, j)]; }
+  Pose2 pose_at(int i, int j) const { return {g.center(i, j).x(), g.center(i, j).y(), 0}; }
+};
+
+FrontierBidderConfig config(double radius, double range) {
+  FrontierBidderConfig c;
+  c.max_cells = 10000;
+  c.robot_radius_m = radius;
+  c.sensor_range_m = range;
+  return c;
+}
+
+struct Region {
+  std::size_t count = 0;
+  int i0 = 1 << 30, j0 = 1 << 30, i1 = -1, j1 = -1;
+};
+
+// The reference gain: grows the region by whole-map sweeps until nothing changes (no
+// queue, no stamps): an unknown cell within range joins when it is a 4-neighbour of the
+// frontier cell or of a cell already in.
+Region reference_gain(const Map& m, int fi, int fj, double range_m) {
+  const double r2 = (range_m / kRes) * (range_m / kRes) + 1e-9;
+  std::vector<char> in(m.c.size(), 0);
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (int j = 0; j < m.g.height; ++j)
+      for (int i = 0; i < m.g.width; ++i) {
+        if (in[m.g.index(i, j)] || m.at(i, j) != Cell::kUnknown) continue;
+        if ((i - fi) * (i - fi) + (j - fj) * (j - fj) > r2) continue;
+        bool joins = false;
+        for (auto [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+          const int ni = i + di, nj = j + dj;
+          if (!m.g.contains(ni, nj)) continue;
+          joins = joins || (ni == fi && nj == fj) || in[m.g.index(ni, nj)];
+        }
+        if (joins) in[m.g.index(i, j)] = 1, changed = true;
+      }
+  }
+  Region r;
+  for (int j = 0; j < m.g.height; ++j)
+    for (int i = 0; i < m.g.width; ++i)
+      if (in[m.g.index(i, j)]) {
+        ++r.count;
+        r.i0 = std::min(r.i0, i), r.j0 = std::min(r.j0, j), r.i1 = std::max(r.i1, i), r.j1 = std::max(r.j1, j);
+      }
+  return r;
+}
+
+std::pair<int, int> cell_of(const Map& m, const msg::BidItem& item) {
+  int i = -1, j = -1;
+  EXPECT_TRUE(m.g.cell_of(item.x, item.y, &i, &j));
+  return {i, j};
+}
+
+// A 3-cell corridor (rows 6..8) from i = 2 to i = 21, walled, opening at i = 22 into unknown.
+Map corridor() {
+  Map m(40, 15, 1.0, -2.0);
+  m.fill(1, 5, 21, 5, Cell::kObstacle);
+  m.fill(1, 9, 21, 9, Cell::kObstacle);
+  m.fill(1, 5, 1, 9, Cell::kObstacle);
+  m.fill(2, 6, 21, 8, Cell::kClear);
+  return m;
+}
+
+TEST(FrontierBids, CorridorEndingInUnknownGivesOneThinnedFrontier) {
+  const Map m = corridor();
+  FrontierBidder bidder(config(0.05, 0.9));  // 0.05 m: no inflation at 0.15 m; range 6 cells
+  msg::Bid bid;
+  ASSERT_EQ(bidder.compute(m.g, m.c.data(), m.pose_at(3, 7), &bid), BidStatus::kOk);
+  EXPECT_EQ(bidder.stats().frontier_cells, 3u);  // (21, 6..8)
+  EXPECT_EQ(bidder.stats().unreachable_frontier_cells, 0u);
+  EXPECT_EQ(bidder.stats().candidates, 1u);  // (21, 7) first (nearest); its neighbours are 0.15 m away
+  ASSERT_EQ(bid.n_items, 1);
+  const msg::BidItem& item = bid.items[0];
+  EXPECT_EQ(cell_of(m, item), (std::pair{21, 7}));
+  EXPECT_NEAR(item.x, 1.0 + 21.5 * kRes, 1e-12);
+  EXPECT_NEAR(item.y, -2.0 + 7.5 * kRes, 1e-12);
+  EXPECT_NEAR(item.cost, 18 * kRes, kRes * std::sqrt(2.0));  // 18 cells along the corridor
+  // By hand: unknown cells within 6 cells of (21, 7), all connected through the opening:
+  // the disc beyond i = 21 (i up to 27) and, outside the walls, rows 1..4 and 10..13 from
+  // i = 16 (row 4: |i - 21| <= sqrt(27)). The slow reference counts them.
+  const Region ref = reference_gain(m, 21, 7, 0.9);
+  EXPECT_EQ(item.gain, static_cast<double>(ref.count));
+  EXPECT_EQ((std::vector{ref.i0, ref.i1, ref.j0, ref.j1}), (std::vector{16, 27, 1, 13}));
+  EXPECT_DOUBLE_EQ(item.igr_min_x, 1.0 + 16 * kRes);
+  EXPECT_DOUBLE_EQ(item.igr_max_x, 1.0 + 28 * kRes);
+  EXPECT_DOUBLE_EQ(item.igr_min_y, -2.0 + 1 * kRes);
+  EXPECT_DOUBLE_EQ(item.igr_max_y, -2.0 + 14 * kRes);
+}
+
+// Left room clear (i < 10), a wall at i = 10 with a gap of `gap` cells centred on j = 10,
+// a clear pocket i = 11..15, unknown from i = 16: 20 frontier cells at i = 15.
+Map wall_with_gap(int gap) {
+  Map m(30, 21);
+  m.fill(0, 0, 9, 20, Cell::kClear);
+  m.fill(10, 0, 10, 20, Cell::kObstacle);
+  m.fill(11, 0, 15, 20, Cell::kClear);
+  m.fill(10, 10 - gap / 2, 10, 10 - gap / 2 + gap - 1, Cell::kClear);
+  return m;
+}
+
+TEST(FrontierBids, GapNarrowerThanTheRobotIsUnreachableAndCounted) {
+  FrontierBidder bidder(config(0.30, 1.5));  // needs a 0.60 m gap
+  msg::Bid bid;
+  const Map narrow = wall_with_gap(3);  // 0.45 m
+  EXPECT_EQ(bidder.compute(narrow.g, narrow.c.data(), narrow.pose_at(4, 10), &bid), BidStatus::kNoFrontier);
+  EXPECT_EQ(bid.n_items, 0);
+  EXPECT_EQ(bidder.stats().frontier_cells, 21u);
+  EXPECT_EQ(bidder.stats().unreachable_frontier_cells, 21u);
+
+  // Exactly 2r (0.60 m): no cell centre in it is 0.30 m from both faces (docs/explore.md).
+  const Map exact = wall_with_gap(4);
+  EXPECT_EQ(bidder.compute(exact.g, exact.c.data(), exact.pose_at(4, 10), &bid), BidStatus::kNoFrontier);
+
+  const Map wide = wall_with_gap(5);  // 0.75 m
+  ASSERT_EQ(bidder.compute(wide.g, wide.c.data(), wide.pose_at(4, 10), &bid), BidStatus::kOk);
+  EXPECT_GE(bid.n_items, 1);
+  EXPECT_EQ(bidder.stats().frontier_cells, 21u);
+  EXPECT_EQ(bidder.stats().unreachable_frontier_cells, 0u);
+  for (std::size_t k = 0; k < bid.n_items; ++k) EXPECT_EQ(cell_of(wide, bid.items[k]).first, 15);
+  // Through the gap's centre (10, 10): at least the straight 11 cells, at most with a diagonal detour.
+  EXPECT_NEAR(bid.items[0].cost, 11 * kRes, kRes * std::sqrt(2.0));
+}
+
+TEST(FrontierBids, RobotPressedAgainstAWallStillPlans) {
+  const Map m = wall_with_gap(5);
+  FrontierBidder bidder(config(0.30, 1.5));
+  msg::Bid bid;
+  // The wall's face is x = 1.5. Cell 8's centre (1.275) is 0.225 m from it, so the
+  // inflation blocks cell 8; cell 7 (0.375 m) is free. A robot 0.28 m from the face (2 cm
+  // of localisation error into the wall) stands in cell 8: its start cell is allowed.
+  const Pose2 pressed{1.5 - 0.28, 3.5 * kRes, 0};
+  int i = 0, j = 0;
+  ASSERT_TRUE(m.g.cell_of(pressed.x, pressed.y, &i, &j));
+  ASSERT_EQ(i, 8);
+  EXPECT_EQ(bidder.compute(m.g, m.c.data(), pressed, &bid), BidStatus::kOk);
+  EXPECT_GE(bid.n_items, 1);
+}
+
+TEST(FrontierBids, KeptFrontiersAreSpacedAndCoverTheFrontier) {
+  // A clear room 30 × 20 cells, its whole top edge open to unknown: 30 frontier cells.
+  Map m(30, 30);
+  m.fill(0, 0, 29, 19, Cell::kClear);
+  for (double spacing : {0.30, 0.50}) {
+    FrontierBidderConfig cfg = config(0.0, 1.0);
+    cfg.frontier_spacing_m = spacing;
+    FrontierBidder bidder(cfg);
+    msg::Bid bid;
+    ASSERT_EQ(bidder.compute(m.g, m.c.data(), m.pose_at(15, 2), &bid), BidStatus::kOk);
+    ASSERT_EQ(bid.n_items, bidder.stats().candidates);  // all bid (< 48)
+    ASSERT_GT(bid.n_items, 5);
+    for (std::size_t a = 0; a < bid.n_items; ++a)
+      for (std::size_t b = a + 1; b < bid.n_items; ++b)
+        EXPECT_GE(std::hypot(bid.items[a].x - bid.items[b].x, bid.items[a].y - bid.items[b].y), spacing - 1e-9);
+    // An open room: the 8-connected path cost is the octile distance, exactly.
+    for (std::size_t k = 0; k < bid.n_items; ++k) {
+      const auto [fi, fj] = cell_of(m, bid.items[k]);
+      const int dx = std::abs(fi - 15), dy = std::abs(fj - 2);
+      const double octile = (std::max(dx, dy) - std::min(dx, dy) + std::sqrt(2.0) * std::min(dx, dy)) * kRes;
+      EXPECT_NEAR(bid.items[k].cost, octile, 1e-9) << "frontier (" << fi << ", " << fj << ")";
+    }
+    // Greedy thinning is maximal: every frontier cell is within the spacing of a kept one.
+    for (int i = 0; i < 30; ++i) {
+      const Vec2 f = m.g.center(i, 19);
+      double nearest = 1e9;
+      for (std::size_t k = 0; k < bid.n_items; ++k)
+        nearest = std::min(nearest, std::hypot(bid.items[k].x - f.x(), bid.items[k].y - f.y()));
+      EXPECT_LT(nearest, spacing) << "frontier cell " << i;
+    }
+  }
+}
+
+TEST(FrontierBids, WallsStopBothFloodFills) {
+  // South room clear (i 0..9, j 0..9), unknown east of it (i >= 10, j <= 9); a wall row
+  // j = 10; unknown north of it (j >= 11) except a clear pocket i 0..4, j 11..13 that
+  // only the wall separates from the robot.
+  Map m(30, 20);
+  m.fill(0, 0, 9, 9, Cell::kClear);
+  m.fill(0, 10, 29, 10, Cell::kObstacle);
+  m.fill(0, 11, 4, 13, Cell::kClear);
+  FrontierBidderConfig cfg = config(0.0, 1.5);  // 10 cells: the disc reaches past the wall
+  FrontierBidder bidder(cfg);
+  msg::Bid bid;
+  ASSERT_EQ(bidder.compute(m.g, m.c.data(), m.pose_at(3, 3), &bid), BidStatus::kOk);
+  // Pocket frontier cells: (4, 11..13) and (0..3, 13): never reached through the wall.
+  EXPECT_EQ(bidder.stats().unreachable_frontier_cells, 7u);
+  EXPECT_EQ(bidder.stats().frontier_cells, 10u + 7u);
+  ASSERT_GE(bid.n_items, 1);
+  const double r2 = (1.5 / kRes) * (1.5 / kRes) + 1e-9;
+  bool north_was_in_range = false;
+  for (std::size_t k = 0; k < bid.n_items; ++k) {
+    const auto [fi, fj] = cell_of(m, bid.items[k]);
+    EXPECT_EQ(fi, 9);
+    // Brute force without connectivity: the east unknown cells in range (convex: all connected).
+    std::size_t east = 0, north = 0;
+    for (int j = 0; j < 20; ++j)
+      for (int i = 0; i < 30; ++i)
+        if (m.at(i, j) == Cell::kUnknown && (i - fi) * (i - fi) + (j - fj) * (j - fj) <= r2) ++(j <= 9 ? east : north);
+    north_was_in_range = north_was_in_range || north > 0;
+    EXPECT_EQ(bid.items[k].gain, static_cast<double>(east)) << "frontier (" << fi << ", " << fj << ")";
+    EXPECT_LE(bid.items[k].igr_max_y, 10 * kRes + 1e-12);  // the IGR ends below the wall
+  }
+  EXPECT_TRUE(north_was_in_range);  // the wall, not the range, kept the north out
+}
+
+// Two frontiers: near and small (a 3-cell unknown niche 1 m away), far and large (an
+// unknown hall 6 m away): the exchange rate decides the order.
+TEST(FrontierBids, RanksByGainMinusRateTimesCost) {
+  Map m(60, 20);
+  m.fill(0, 0, 59, 19, Cell::kObstacle);
+  m.fill(1, 9, 45, 11, Cell::kClear);              // corridor rows 9..11 from i = 1 to 45
+  m.fill(46, 1, 58, 18, Cell::kUnknown);           // the hall
+  m.fill(8, 12, 8, 12, Cell::kUnknown);            // the niche above (8, 11)
+  FrontierBidderConfig cfg = config(0.0, 3.0);
+  cfg.gain_per_metre = 0;
+  FrontierBidder gain_only(cfg);
+  msg::Bid bid;
+  ASSERT_EQ(gain_only.compute(m.g, m.c.data(), m.pose_at(2, 10), &bid), BidStatus::kOk);
+  ASSERT_GE(bid.n_items, 2);
+  EXPECT_EQ(cell_of(m, bid.items[0]).first, 45);
+  EXPECT_EQ(bid.items[bid.n_items - 1].gain, 1.0);  // the niche: one cell
+  EXPECT_EQ(cell_of(m, bid.items[bid.n_items - 1]), (std::pair{8, 11}));
+  // Rate so high that 1 m of travel outweighs the hall: the niche, 6 cells away, first.
+  cfg.gain_per_metre = 1e4;
+  FrontierBidder cost_heavy(cfg);
+  ASSERT_EQ(cost_heavy.compute(m.g, m.c.data(), m.pose_at(2, 10), &bid), BidStatus::kOk);
+  EXPECT_EQ(cell_of(m, bid.items[0]), (std::pair{8, 11}));
+  for (std::size_t k = 1; k < bid.n_items; ++k) {
+    const double prev = bid.items[k - 1].gain - 1e4 * bid.items[k - 1].cost;
+    EXPECT_GE(prev, bid.items[k].gain - 1e4 * bid.items[k].cost);
+  }
+}
+
+TEST(FrontierBids, MaxItemsCapsToTheBestInOrder) {
+  Map m(40, 30);
+  m.fill(0, 0, 39, 19, Cell::kClear);
+  FrontierBidderConfig cfg = config(0.0, 1.2);
+  cfg.gain_per_metre = 3.0;
+  FrontierBidder all(cfg);
+  msg::Bid full;
+  ASSERT_EQ(all.compute(m.g, m.c.data(), m.pose_at(5, 5), &full), BidStatus::kOk);
+  ASSERT_GT(full.n_items, 5);
+  for (std::size_t k = 1; k < full.n_items; ++k)
+    EXPECT_GE(full.items[k - 1].gain - 3.0 * full.items[k - 1].cost, full.items[k].gain - 3.0 * full.items[k].cost);
+  cfg.max_items = 5;
+  FrontierBidder capped(cfg);
+  msg::Bid five;
+  ASSERT_EQ(capped.compute(m.g, m.c.data(), m.pose_at(5, 5), &five), BidStatus::kOk);
+  ASSERT_EQ(five.n_items, 5);
+  for (std::size_t k = 0; k < 5; ++k) {
+    EXPECT_EQ(five.items[k].x, full.items[k].x);
+    EXPECT_EQ(five.items[k].y, full.items[k].y);
+  }
+}
+
+void expect_rejected(FrontierBidderConfig c, const std::string& name) {
+  try {
+    FrontierBidder b(c);
+    ADD_FAILURE() << name << " accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+  }
+}
+
+TEST(FrontierBids, BadConfigIsRejectedNamingTheParameter) {
+  const FrontierBidderConfig ok = config(0.3, 4.0);
+  EXPECT_NO_THROW(FrontierBidder{ok});
+  auto with = [&](auto edit) {
+    FrontierBidderConfig c = ok;
+    edit(c);
+    return c;
+  };
+  expect_rejected(with([](auto& c) { c.robot_radius_m = -0.1; }), "robot_radius_m");
+  expect_rejected(with([](auto& c) { c.max_items = msg::kMaxBids + 1; }), "max_items");
+  expect_rejected(with([](auto& c) { c.max_items = 0; }), "max_items");
+  expect_rejected(with([](auto& c) { c.max_cells = 0; }), "max_cells");
+  expect_rejected(with([](auto& c) { c.sensor_range_m = 0; }), "sensor_range_m");
+  expect_rejected(with([](auto& c) { c.frontier_spacing_m = std::nan(""); }), "frontier_spacing_m");
+  expect_rejected(with([](auto& c) { c.min_gain_cells = 0; }), "min_gain_cells");
+  expect_rejected(with([](auto& c) { c.gain_per_metre = -1; }), "gain_per_metre");
+}
+
+TEST(FrontierBids, RefusesMapsItCannotHoldAndRobotsOffTheMap) {
+  const Map m = corridor();  // 40 × 15 = 600 cells
+  FrontierBidderConfig cfg = config(0.05, 0.9);
+  cfg.max_cells = 599;
+  FrontierBidder small(cfg);
+  msg::Bid bid;
+  bid.n_items = 7;
+  EXPECT_EQ(small.compute(m.g, m.c.data(), m.pose_at(3, 7), &bid), BidStatus::kMapTooLarge);
+  EXPECT_EQ(bid.n_items, 0);
+  cfg.max_cells = 600;  // exactly fits
+  FrontierBidder exact(cfg);
+  EXPECT_EQ(exact.compute(m.g, m.c.data(), m.pose_at(3, 7), &bid), BidStatus::kOk);
+  EXPECT_EQ(exact.compute(m.g, m.c.data(), {0.9, 0.0, 0}, &bid), BidStatus::kRobotOutsideMap);
+  EXPECT_EQ(exact.compute(m.g, m.c.data(), {1.0 + 40 * kRes, 0.0, 0}, &bid), BidStatus::kRobotOutsideMap);
+  EXPECT_EQ(exact.compute(m.g, m.c.data(), {std::nan(""), 0.0, 0}, &bid), BidStatus::kRobotOutsideMap);
+  EXPECT_EQ(exact.compute(m.g, m.c.data(), m.pose_at(10, 5), &bid), BidStatus::kRobotInObstacle);
+  EXPECT_EQ(exact.compute(m.g, nullptr, m.pose_at(3, 7), &bid), BidStatus::kBadMap);
+  GridGeometry zero_res = m.g;
+  zero_res.resolution = 0;
+  EXPECT_EQ(exact.compute(zero_res, m.c.data(), m.pose_at(3, 7), &bid), BidStatus::kBadMap);
+  EXPECT_EQ(bid.n_items, 0);
+}
+
+#ifndef CAIRN_SANITIZED
+TEST(FrontierBids, ComputeAllocatesNothing) {
+  Map m(200, 150);  // an open hall, half known, with pillars
+  m.fill(0, 0, 199, 74, Cell::kClear);
+  for (int i = 10; i < 200; i += 20) m.fill(i, 20, i + 1, 21, Cell::kObstacle);
+  FrontierBidderConfig cfg = config(0.3, 4.0);
+  cfg.max_cells = m.g.cells();
+  FrontierBidder bidder(cfg);
+  msg::Bid bid;
+  testing::start_counting_allocations();
+  const BidStatus first = bidder.compute(m.g, m.c.data(), m.pose_at(100, 10), &bid);
+  const BidStatus second = bidder.compute(m.g, m.c.data(), m.pose_at(30, 60), &bid);
+  const std::uint64_t allocations = testing::stop_counting_allocations();
+  EXPECT_EQ(first, BidStatus::kOk);
+  EXPECT_EQ(second, BidStatus::kOk);
+  EXPECT_EQ(bid.n_items, msg::kMaxBids);
+  EXPECT_EQ(allocations, 0u);
+}
+#endif
+
+}  // namespace
+}  // namespace cairn::explore
