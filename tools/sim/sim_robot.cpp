@@ -21,7 +21,7 @@ SimRobot::SimRobot(const SimRobotConfig& cfg, hil::World* world)
       world_(world),
       body_(std::make_unique<hil::DiffRobot>(cfg.id, cfg.robot.geometry, cfg.start, cfg.body_radius_m, world)),
       core_(cfg.robot),
-      follower_(there_and_back(cfg.route, cfg.start),
+      follower_(cfg.scripted ? there_and_back(cfg.route, cfg.start) : std::vector<Vec2>{},
                 [&] {
                   firmware::FollowerConfig f = cfg.follower;
                   f.loop = true;
@@ -40,6 +40,12 @@ SimRobot::SimRobot(const SimRobotConfig& cfg, hil::World* world)
   beams_.resize(static_cast<std::size_t>(hil::sweep_beams(angle_deg_, res_centideg_)));
   for (int i = 0; i < 4; ++i) free_scans_.push_back(std::make_unique<lms::LmsScan>());
   body_->set_wheel_scale(cfg.wheel_scale_left, cfg.wheel_scale_right);
+}
+
+void SimRobot::set_path(std::vector<Vec2> local_waypoints) {
+  firmware::FollowerConfig f = cfg_.follower;
+  f.loop = false;
+  follower_ = firmware::PathFollower(std::move(local_waypoints), f);
 }
 
 void SimRobot::physics(Nanos /*now*/, Nanos dt) {
