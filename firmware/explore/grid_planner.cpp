@@ -14,6 +14,7 @@ namespace {
 constexpr std::uint8_t kWall = 1;      // obstacle or unknown: never entered (except the start)
 constexpr std::uint8_t kInflated = 2;  // clear, within the robot's radius of an obstacle
 constexpr std::uint8_t kSettled = 4;
+constexpr std::uint8_t kNearWall = 8;  // clear, within radius + clearance margin of an obstacle
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 constexpr double kEps = 1e-9;
 constexpr int kDi4[4] = {1, -1, 0, 0};
@@ -34,7 +35,6 @@ const char* to_string(PlanStatus s) {
     case PlanStatus::kMapTooLarge: return "map too large";
     case PlanStatus::kStartOutsideMap: return "start outside the map";
     case PlanStatus::kGoalOutsideMap: return "goal outside the map";
-    case PlanStatus::kGoalBlocked: return "goal not a clear cell";
     case PlanStatus::kNoPath: return "no path";
   }
   return "?";
@@ -46,6 +46,12 @@ GridPlanner::GridPlanner(const GridPlannerConfig& c) : config_(c) {
           c.robot_radius_m);
   require(std::isfinite(c.inflated_cost_factor) && c.inflated_cost_factor >= 1, "inflated_cost_factor",
           "must be finite and >= 1", c.inflated_cost_factor);
+  require(std::isfinite(c.clearance_margin_m) && c.clearance_margin_m >= 0, "clearance_margin_m",
+          "must be finite and >= 0", c.clearance_margin_m);
+  require(std::isfinite(c.near_wall_cost_factor) && c.near_wall_cost_factor >= 1, "near_wall_cost_factor",
+          "must be finite and >= 1", c.near_wall_cost_factor);
+  require(std::isfinite(c.goal_tolerance_m) && c.goal_tolerance_m >= 0, "goal_tolerance_m", "must be finite and >= 0",
+          c.goal_tolerance_m);
   require(std::isfinite(c.waypoint_spacing_m) && c.waypoint_spacing_m > 0, "waypoint_spacing_m",
           "must be finite and > 0", c.waypoint_spacing_m);
   flags_.assign(c.max_cells, 0);
@@ -61,10 +67,12 @@ GridPlanner::GridPlanner(const GridPlannerConfig& c) : config_(c) {
 void GridPlanner::mark_inflated(const GridGeometry& g, const Cell* cells) {
   const std::size_t n = g.cells();
   for (std::size_t k = 0; k < n; ++k) flags_[k] = cells[k] == Cell::kClear ? 0 : kWall;
-  if (config_.robot_radius_m <= 0) return;
+  if (config_.robot_radius_m + config_.clearance_margin_m <= 0) return;
   const double rc = config_.robot_radius_m / g.resolution;
   const double rc2 = rc * rc - kEps;
-  const int reach = static_cast<int>(std::ceil(rc + 0.5));
+  const double rn = (config_.robot_radius_m + config_.clearance_margin_m) / g.resolution;
+  const double rn2 = rn * rn - kEps;
+  const int reach = static_cast<int>(std::ceil(rn + 0.5));
   for (int j = 0; j < g.height; ++j)
     for (int i = 0; i < g.width; ++i) {
       if (cells[g.index(i, j)] != Cell::kObstacle) continue;
@@ -76,7 +84,10 @@ void GridPlanner::mark_inflated(const GridGeometry& g, const Cell* cells) {
         for (int di = std::max(-reach, -i); di <= std::min(reach, g.width - 1 - i); ++di) {
           const double dx = std::max(std::abs(di) - 0.5, 0.0), dy = std::max(std::abs(dj) - 0.5, 0.0);
           const std::size_t k = g.index(i + di, j + dj);
-          if (dx * dx + dy * dy < rc2 && !(flags_[k] & kWall)) flags_[k] |= kInflated;
+          if (flags_[k] & kWall) continue;
+          const double d2 = dx * dx + dy * dy;
+          if (d2 < rc2) flags_[k] |= kInflated;
+          else if (d2 < rn2) flags_[k] |= kNearWall;
         }
     }
 }
@@ -91,8 +102,14 @@ PlanStatus GridPlanner::plan(const GridGeometry& g, const Cell* cells, Vec2 star
   int si = 0, sj = 0, gi = 0, gj = 0;
   if (!g.cell_of(start.x(), start.y(), &si, &sj)) return PlanStatus::kStartOutsideMap;
   if (!g.cell_of(goal.x(), goal.y(), &gi, &gj)) return PlanStatus::kGoalOutsideMap;
-  const auto s = static_cast<std::uint32_t>(g.index(si, sj)), t = static_cast<std::uint32_t>(g.index(gi, gj));
-  if (cells[t] != Cell::kClear) return PlanStatus::kGoalBlocked;
+  const auto s = static_cast<std::uint32_t>(g.index(si, sj));
+  const double tol2 = config_.goal_tolerance_m * config_.goal_tolerance_m + kEps;
+  const auto gw = static_cast<std::uint32_t>(g.width);
+  auto goal_d2 = [&](std::uint32_t c) {
+    return (g.center(static_cast<int>(c % gw), static_cast<int>(c / gw)) - goal).squaredNorm();
+  };
+  const auto goal_index = static_cast<std::uint32_t>(g.index(gi, gj));
+  auto goal_cell = [&](std::uint32_t c) { return c == goal_index && cells[c] == Cell::kClear; };
 
   mark_inflated(g, cells);
   const std::size_t n = g.cells();
@@ -103,14 +120,21 @@ PlanStatus GridPlanner::plan(const GridGeometry& g, const Cell* cells, Vec2 star
   parent_[s] = kNone;
   push_or_decrease(s);
   const auto w = static_cast<std::uint32_t>(g.width);
-  bool found = false;
+  // The goal's own cell when reached; else the reached clear cell nearest to the goal
+  // within the tolerance (the whole reachable area is then flooded).
+  std::uint32_t t = kNone, near = kNone;
+  double near_d2 = tol2;
   while (heap_size_ > 0) {
     const std::uint32_t c = pop();
     flags_[c] |= kSettled;
     ++settled_;
-    if (c == t) {
-      found = true;
+    if (c != s && goal_cell(c)) {
+      t = c;
       break;
+    }
+    if (c != s && cells[c] == Cell::kClear && goal_d2(c) <= near_d2) {
+      near_d2 = goal_d2(c);
+      near = c;
     }
     const int i = static_cast<int>(c % w), j = static_cast<int>(c / w);
     for (int dj = -1; dj <= 1; ++dj)
@@ -120,11 +144,13 @@ PlanStatus GridPlanner::plan(const GridGeometry& g, const Cell* cells, Vec2 star
         if (flags_[nb] & (kWall | kSettled)) continue;
         // Inflated cells: only on the way out of the start's inflated patch (from the start
         // or another inflated cell), or as the goal itself; never to cut through a gap.
-        if ((flags_[nb] & kInflated) && nb != t && c != s && !(flags_[c] & kInflated)) continue;
+        if ((flags_[nb] & kInflated) && !goal_cell(static_cast<std::uint32_t>(nb)) && c != s && !(flags_[c] & kInflated))
+          continue;
         const bool diag = di != 0 && dj != 0;
         if (diag && ((flags_[g.index(i + di, j)] & kWall) || (flags_[g.index(i, j + dj)] & kWall))) continue;
         double step = diag ? g.resolution * std::numbers::sqrt2 : g.resolution;
         if (flags_[nb] & kInflated) step *= config_.inflated_cost_factor;
+        else if (flags_[nb] & kNearWall) step *= config_.near_wall_cost_factor;
         const double nc = cost_[c] + step;
         if (nc < cost_[nb]) {
           cost_[nb] = nc;
@@ -133,7 +159,8 @@ PlanStatus GridPlanner::plan(const GridGeometry& g, const Cell* cells, Vec2 star
         }
       }
   }
-  if (!found) return PlanStatus::kNoPath;
+  if (t == kNone) t = near;
+  if (t == kNone) return PlanStatus::kNoPath;
   cells_path_.clear();
   for (std::uint32_t c = t; c != s; c = parent_[c]) cells_path_.push_back(c);
   // Thinned: every k-th cell from the start's side, and always the goal.

@@ -19,10 +19,13 @@ struct GridPlannerConfig {
   std::size_t max_cells = 0;           // the largest map accepted; sizes every buffer
   double robot_radius_m = 0.30;        // inflation, as FrontierBidderConfig::robot_radius_m
   double inflated_cost_factor = 10.0;  // a step in the start's inflated patch costs this many times more (>= 1)
-  double waypoint_spacing_m = 0.45;    // the cell path is thinned to waypoints about this far apart
+  double clearance_margin_m = 0.15;    // cells within radius + margin of an obstacle cost more ...
+  double near_wall_cost_factor = 3.0;  // ... this many times (>= 1): paths keep to the middle
+  double goal_tolerance_m = 0.45;      // goal cell unreachable: the reachable clear cell nearest it, this close
+  double waypoint_spacing_m = 0.30;    // the cell path is thinned to waypoints about this far apart
 };
 
-enum class PlanStatus : std::uint8_t { kOk, kBadMap, kMapTooLarge, kStartOutsideMap, kGoalOutsideMap, kGoalBlocked, kNoPath };
+enum class PlanStatus : std::uint8_t { kOk, kBadMap, kMapTooLarge, kStartOutsideMap, kGoalOutsideMap, kNoPath };
 
 const char* to_string(PlanStatus s);
 
@@ -32,9 +35,10 @@ class GridPlanner {
   explicit GridPlanner(const GridPlannerConfig& config);
 
   /// On kOk, *path holds waypoints (cell centres, global frame) from the first step after
-  /// the start to the goal's cell centre; otherwise it is empty. The start cell is always
-  /// expanded (whatever its class); the goal must be a clear cell. Allocates only to grow
-  /// *path beyond its capacity.
+  /// the start to the goal's cell centre when that cell is clear and reachable, else to the
+  /// reachable clear cell nearest the goal within goal_tolerance_m (a frontier cell may have
+  /// turned obstacle or inflated on a newer map); otherwise it is empty. The start cell is always expanded
+  /// (whatever its class). Allocates only to grow *path beyond its capacity.
   PlanStatus plan(const GridGeometry& g, const Cell* cells, Vec2 start, Vec2 goal, std::vector<Vec2>* path);
 
   /// Cells settled by the last plan() (its work).

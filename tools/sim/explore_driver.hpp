@@ -13,6 +13,7 @@
 
 #include "basestation/explore/task_allocator.hpp"
 #include "common/occupancy_grid.hpp"
+#include "firmware/executive/path_follower.hpp"
 #include "firmware/explore/frontier_bids.hpp"
 #include "firmware/explore/grid_planner.hpp"
 
@@ -23,6 +24,10 @@ struct ExploreConfig {
   explore::FrontierBidderConfig bidder;    // max_cells is set from the map
   explore::GridPlannerConfig planner;      // max_cells is set from the map
   explore::AllocatorConfig allocator;
+  /// The robots' path follower in exploration (replaces FleetSimConfig::follower): a short
+  /// lookahead and an early turn in place, so corners of the planned path in doors are not
+  /// cut (the scripted tours' 0.6 m lookahead clipped door frames).
+  firmware::FollowerConfig follower{.speed = 0.6, .lookahead = 0.35, .turn_in_place_rad = 0.5};
 };
 
 struct ExploreCounters {
@@ -86,6 +91,7 @@ class ExploreDriver {
   std::vector<Vec2> path_;
   bool explored_ = false;
   Nanos explored_at_ = 0;
+  Nanos now_dbg_ = 0;
   ExploreCounters counters_;
 };
 

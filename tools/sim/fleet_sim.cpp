@@ -73,7 +73,7 @@ FleetSim::FleetSim(const FleetSimConfig& cfg) : cfg_(cfg) {
     rc.scripted = !cfg.explore;
     rc.robot = cfg.robot;
     rc.robot.robot_id = static_cast<std::uint16_t>(id);
-    rc.follower = cfg.follower;
+    rc.follower = cfg.explore ? cfg.exploration.follower : cfg.follower;
     rc.seed = cfg.seed * 1000 + static_cast<std::uint64_t>(id);
     robots_.push_back(std::make_unique<SimRobot>(rc, worlds_.back().get()));
     base::RobotPrior prior;
