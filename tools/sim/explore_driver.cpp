@@ -1,8 +1,6 @@
 #include "tools/sim/explore_driver.hpp"
 
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
 
 namespace cairn::sim {
 
@@ -36,9 +34,6 @@ void ExploreDriver::plan_for(std::size_t index, const RobotView& r, std::vector<
   if (s != explore::PlanStatus::kOk) {
     // The robot stands; the allocator's monitor takes the task back after its timeout.
     ++counters_.plan_failures;
-    if (std::getenv("CAIRN_EXPLORE_DEBUG"))
-      std::fprintf(stderr, "t=%.1f robot %u plan %s from (%.2f %.2f) to (%.2f %.2f)\n", nanos_to_seconds(now_dbg_), r.id,
-                   explore::to_string(s), r.global.x, r.global.y, task->target.x(), task->target.y());
     return;
   }
   o.global_path = path_;
@@ -46,7 +41,6 @@ void ExploreDriver::plan_for(std::size_t index, const RobotView& r, std::vector<
 
 bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, bool bid_now,
                             std::vector<PathOrder>* orders) {
-  now_dbg_ = now;
   if (task_id_.size() < robots.size()) {
     task_id_.resize(robots.size(), 0);
     bumps_.resize(robots.size(), 0);

@@ -91,7 +91,6 @@ class ExploreDriver {
   std::vector<Vec2> path_;
   bool explored_ = false;
   Nanos explored_at_ = 0;
-  Nanos now_dbg_ = 0;
   ExploreCounters counters_;
 };
 
