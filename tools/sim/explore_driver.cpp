@@ -22,10 +22,11 @@ ExploreDriver::ExploreDriver(const ExploreConfig& config, std::size_t max_cells)
       planner_(sized(config.planner, max_cells)),
       allocator_(config.allocator) {}
 
-void ExploreDriver::plan_for(std::size_t index, const RobotView& r, std::vector<PathOrder>* orders) {
+void ExploreDriver::plan_for(std::size_t index, const RobotView& r, std::vector<PathOrder>* orders, bool back_off) {
   const auto task = allocator_.task(r.id);
   PathOrder& o = orders->emplace_back();
   o.index = index;
+  o.back_off = back_off;
   bumps_[index] = r.bumps;
   if (!task || !moving(task->kind) || !r.localised) return;  // stop
   ++counters_.plans;
@@ -75,7 +76,7 @@ bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, boo
     for (std::size_t k = 0; k < robots.size(); ++k) {
       if (robots[k].id != a.robot_id) continue;
       task_id_[k] = a.task_id;
-      plan_for(k, robots[k], orders);
+      plan_for(k, robots[k], orders, robots[k].bumps != bumps_[k]);
       planned[k] = true;
     }
   }
@@ -88,7 +89,7 @@ bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, boo
     const bool bumped = robots[k].bumps != bumps_[k];
     if (!bid_now && !bumped) continue;
     if (bumped) ++counters_.replans_after_bump;
-    plan_for(k, robots[k], orders);
+    plan_for(k, robots[k], orders, bumped);
   }
   if (bid_now) {
     std::vector<Vec2> targets;

@@ -28,11 +28,16 @@ struct ExploreConfig {
   /// lookahead and an early turn in place, so corners of the planned path in doors are not
   /// cut (the scripted tours' 0.6 m lookahead clipped door frames).
   firmware::FollowerConfig follower{.speed = 0.6, .lookahead = 0.35, .turn_in_place_rad = 0.5};
+  /// After a bump the robot first backs straight off for this long at this speed, then
+  /// follows its replanned path (a stand-in for the missing protective field and recovery:
+  /// pushing on against a door frame slips the wheels and corrupts odometry).
+  Nanos back_off = 1500 * kNanosPerMilli;
+  double back_off_speed = 0.15;  // m/s
 };
 
 struct ExploreCounters {
   std::uint64_t bids = 0, bids_no_frontier = 0, bids_failed = 0;  // failed: robot outside the map / in an obstacle
-  std::uint64_t plans = 0, plan_failures = 0, replans_after_bump = 0;
+  std::uint64_t plans = 0, plan_failures = 0, replans_after_bump = 0;  // each replan after a bump backs off first
   /// Bid periods in which at least two robots held explore tasks on different frontiers
   /// (targets farther apart than the allocator's same_frontier_m): the coordination seen.
   std::uint64_t periods_on_distinct_frontiers = 0;
@@ -51,6 +56,7 @@ class ExploreDriver {
   struct PathOrder {
     std::size_t index = 0;
     std::vector<Vec2> global_path;
+    bool back_off = false;  // back off first (ExploreConfig::back_off), the robot bumped
   };
 
   ExploreDriver(const ExploreConfig& config, std::size_t max_cells);
@@ -73,10 +79,11 @@ class ExploreDriver {
   Nanos explored_at() const { return explored_at_; }
   const ExploreCounters& counters() const { return counters_; }
   const explore::TaskAllocator& allocator() const { return allocator_; }
+  const ExploreConfig& config() const { return config_; }
 
  private:
   bool advance(Nanos now, const std::vector<RobotView>& robots, bool bid_now, std::vector<PathOrder>* orders);
-  void plan_for(std::size_t index, const RobotView& r, std::vector<PathOrder>* orders);
+  void plan_for(std::size_t index, const RobotView& r, std::vector<PathOrder>* orders, bool back_off = false);
 
   ExploreConfig config_;
   explore::FrontierBidder bidder_;

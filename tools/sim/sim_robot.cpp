@@ -42,7 +42,9 @@ SimRobot::SimRobot(const SimRobotConfig& cfg, hil::World* world)
   body_->set_wheel_scale(cfg.wheel_scale_left, cfg.wheel_scale_right);
 }
 
-void SimRobot::set_path(std::vector<Vec2> local_waypoints) {
+void SimRobot::set_path(std::vector<Vec2> local_waypoints, Nanos back_off_until, double back_off_speed) {
+  back_off_until_ = back_off_until;
+  back_off_speed_ = back_off_speed;
   firmware::FollowerConfig f = cfg_.follower;
   f.loop = false;
   follower_ = firmware::PathFollower(std::move(local_waypoints), f);
@@ -116,7 +118,11 @@ void SimRobot::tick(Nanos now, firmware::RobotOutputs& out) {
   if (now >= next_control_) {
     next_control_ += cfg_.robot.period;
     double v = 0, w = 0;
-    follower_.command(core_.local_pose(), &v, &w);
+    if (now < back_off_until_) {
+      v = -back_off_speed_;
+    } else {
+      follower_.command(core_.local_pose(), &v, &w);
+    }
     firmware::ControlInputs in;
     in.now = now;
     in.last_link = now;  // the simulated link carries no liveness (safety's link check is the bench's)

@@ -45,7 +45,9 @@ class SimRobot {
 
   /// Exploration: follow these waypoints (the robot's local frame) from now on, replacing
   /// the current path; an empty path stops the robot. Called between steps only.
-  void set_path(std::vector<Vec2> local_waypoints);
+  /// Before following it, back straight off at `back_off_speed` until `back_off_until`
+  /// (0: at once).
+  void set_path(std::vector<Vec2> local_waypoints, Nanos back_off_until = 0, double back_off_speed = 0);
   /// The current path is finished (or there is none).
   bool path_done() const { return follower_.done(); }
 
@@ -81,6 +83,8 @@ class SimRobot {
   Nanos next_control_ = 0, next_sweep_ = 0, sweep_period_ = 0, sweep_time_ = 0;
   int angle_deg_ = 180, res_centideg_ = 50;
   std::uint64_t scans_ = 0;
+  Nanos back_off_until_ = 0;
+  double back_off_speed_ = 0;
 };
 
 }  // namespace cairn::sim
