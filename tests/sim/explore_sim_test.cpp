@@ -1,9 +1,11 @@
 // cairn-sim's exploration mode on the office world (the seed's world A) with two robots:
 // the map's coverage grows to a stated level within a stated simulated time, the run is
 // deterministic, the robots seldom press against walls, and the base's allocator keeps
-// the two robots on different frontiers (coordination). Capped at 120 simulated s for CI.
+// the two robots on different frontiers (coordination), which the uncoordinated mode
+// does not. Capped at 120 simulated s for CI (three runs, about 25 s wall under nice).
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstring>
 
 #include "tools/sim/fleet_sim.hpp"
@@ -73,6 +75,20 @@ TEST(ExploreSim, TheAllocatorCoordinatesTheRobots) {
   EXPECT_EQ(d.plan_failures, 0u);
   // Bid periods (2 s) with both robots on explore tasks on different frontiers: most of them.
   EXPECT_GE(d.periods_on_distinct_frontiers, static_cast<std::uint64_t>(kSeconds / 2 * 0.75));
+}
+
+// Without the discount (the seed's uncoordinated mode) each robot takes its own best
+// item: the two robots, starting side by side, chase the same frontier far more often.
+TEST(ExploreSim, UncoordinatedRobotsShareFrontiersMoreOften) {
+  sim::FleetSimConfig c = office_explore(5);
+  c.exploration.allocator.coordinated = false;
+  sim::FleetSim f(c);
+  f.run();
+  const sim::FleetSummary u = f.summary(1.0);
+  std::printf("bid periods on different frontiers: coordinated %llu, uncoordinated %llu\n",
+              static_cast<unsigned long long>(first().s.explore->driver.periods_on_distinct_frontiers),
+              static_cast<unsigned long long>(u.explore->driver.periods_on_distinct_frontiers));
+  EXPECT_LT(u.explore->driver.periods_on_distinct_frontiers, first().s.explore->driver.periods_on_distinct_frontiers);
 }
 
 TEST(ExploreSim, SameSeedSameRun) {

@@ -57,9 +57,9 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                         {"false_free", s.map.false_free},
                         {"wall_offset_mean_cells", s.map.wall_offset_mean_cells()},
                         {"wall_offset_max_cells", s.map.wall_offset_max_cells()}}},
-                      {"time_to_coverage_s", time_to_coverage(s)},
                       {"sim_seconds", s.sim_seconds},
                       {"steps", s.steps}};
+  if (!s.coverage.empty()) j["time_to_coverage_s"] = time_to_coverage(s);  // recorded: --coverage-period / --explore
   if (s.explore) {
     const auto& a = s.explore->allocator;
     const auto& d = s.explore->driver;
