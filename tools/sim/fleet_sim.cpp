@@ -70,9 +70,10 @@ FleetSim::FleetSim(const FleetSimConfig& cfg) : cfg_(cfg) {
     rc.id = id;
     rc.start = *start;
     rc.route = world.route(id);
+    rc.scripted = !cfg.explore;
     rc.robot = cfg.robot;
     rc.robot.robot_id = static_cast<std::uint16_t>(id);
-    rc.follower = cfg.follower;
+    rc.follower = cfg.explore ? cfg.exploration.follower : cfg.follower;
     rc.seed = cfg.seed * 1000 + static_cast<std::uint64_t>(id);
     robots_.push_back(std::make_unique<SimRobot>(rc, worlds_.back().get()));
     base::RobotPrior prior;
@@ -92,6 +93,41 @@ FleetSim::FleetSim(const FleetSimConfig& cfg) : cfg_(cfg) {
     mc.height_m = b.ymax - b.ymin + 4.0;
   }
   mapper_ = std::make_unique<mapper::Mapper>(mc);
+  if (cfg.explore) explore_ = std::make_unique<ExploreDriver>(cfg.exploration, mapper_->classified().geometry.cells());
+}
+
+// Exploration: the robots' global estimates (local ⊕ the fusion's correction) to the
+// driver; its paths taken into each robot's local frame by the same correction.
+void FleetSim::explore_step() {
+  views_.clear();
+  corrections_.assign(robots_.size(), Pose2());
+  for (std::size_t k = 0; k < robots_.size(); ++k) {
+    const auto& r = robots_[k];
+    ExploreDriver::RobotView v;
+    v.id = static_cast<std::uint16_t>(r->id());
+    msg::PoseCorrection c;
+    if (fusion_->correction(v.id, now_, &c)) {
+      v.localised = true;
+      v.global = compose(c.local_to_global, r->core().local_pose());
+      corrections_[k] = c.local_to_global;
+    }
+    v.bumps = r->bumps();
+    views_.push_back(v);
+  }
+  orders_.clear();
+  if (explore_->step(now_, views_, [&] { return mapper_->classified(); }, &orders_)) explored_ = true;
+  for (ExploreDriver::PathOrder& o : orders_) {
+    const Pose2 to_local = inverse(corrections_[o.index]);
+    for (Vec2& p : o.global_path) p = transform_point(to_local, p);
+    const ExploreConfig& ec = explore_->config();
+    robots_[o.index]->set_path(std::move(o.global_path), o.back_off ? now_ + ec.back_off : 0, ec.back_off_speed);
+  }
+}
+
+void FleetSim::record_coverage() {
+  const tools::MapQuality q =
+      tools::evaluate(mapper_->classified(), *worlds_.front(), tools::default_start(*worlds_.front()));
+  coverage_.push_back({nanos_to_seconds(now_), q.coverage, q.agreement});
 }
 
 FleetSim::~FleetSim() = default;
@@ -198,6 +234,11 @@ void FleetSim::run(const std::function<void(double)>& progress) {
         }
         samples_.push_back(s);
       }
+      if (explore_) explore_step();  // the exploration layer runs at the sample period
+    }
+    if (cfg_.coverage_period > 0 && now_ >= next_coverage_) {
+      next_coverage_ += cfg_.coverage_period;
+      record_coverage();
     }
     if (progress && now_ >= next_progress) {
       next_progress += 10 * kNanosPerSecond;
@@ -206,7 +247,7 @@ void FleetSim::run(const std::function<void(double)>& progress) {
     ++steps_;
     now_ += cfg_.physics_step;
     next_robot_.store(0, std::memory_order_relaxed);  // the barrier orders it before the next step
-    done = now_ > end;
+    done = now_ > end || explored_;
   };
   std::barrier sync(static_cast<std::ptrdiff_t>(workers), between_steps);
   std::vector<std::thread> threads;
@@ -226,6 +267,7 @@ void FleetSim::run(const std::function<void(double)>& progress) {
   }
   for (auto& t : threads) t.join();
   reframe_map();  // the map as the base's final estimates place it
+  if (cfg_.coverage_period > 0) record_coverage();
 }
 
 std::vector<msg::Landmark> FleetSim::landmarks() const {
@@ -283,6 +325,23 @@ FleetSummary FleetSim::summary(double wall_seconds) const {
   for (const auto& box : outboxes_) {
     s.messages += box->sent;
     s.messages_lost += box->lost;
+  }
+  s.coverage = coverage_;
+  for (std::size_t k = 0; k < 4; ++k) {
+    for (const CoverageSample& c : coverage_) {
+      if (c.coverage >= kCoverageLevels[k]) {
+        s.time_to_coverage[k] = c.t_s;
+        break;
+      }
+    }
+  }
+  if (explore_) {
+    ExploreSummary e;
+    e.explored = explore_->explored();
+    e.explored_at_s = nanos_to_seconds(explore_->explored_at());
+    e.allocator = explore_->allocator().counters();
+    e.driver = explore_->counters();
+    s.explore = e;
   }
   s.steps = steps_;
   s.sim_seconds = nanos_to_seconds(now_);

@@ -13,6 +13,7 @@
 #include <deque>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -21,6 +22,7 @@
 #include "basestation/mapper/export.hpp"
 #include "basestation/mapper/mapper.hpp"
 #include "tools/map_quality/map_quality.hpp"
+#include "tools/sim/explore_driver.hpp"
 #include "tools/sim/sim_robot.hpp"
 
 namespace cairn::sim {
@@ -41,6 +43,29 @@ struct FleetSimConfig {
   Nanos map_reframe_period = 10 * kNanosPerSecond;  // re-render moved scans this often, and at the end
   firmware::ExecutiveConfig robot;             // every robot's configuration (id set per robot)
   firmware::FollowerConfig follower;
+  /// Exploration instead of the scripted tours (docs/explore.md): frontier bids, the base's
+  /// allocator, paths on the global map. The run ends when the allocator reports the world
+  /// explored, or at duration_s.
+  bool explore = false;
+  ExploreConfig exploration;
+  /// Coverage of the central map against the world's truth (tools::evaluate) recorded this
+  /// often (0: only at the end, in the summary's map figures).
+  Nanos coverage_period = 0;
+};
+
+struct CoverageSample {
+  double t_s = 0;
+  double coverage = 0, agreement = 0;
+};
+
+/// The coverage levels whose first time the summary reports.
+inline constexpr double kCoverageLevels[4] = {0.50, 0.90, 0.95, 1.00};
+
+struct ExploreSummary {
+  bool explored = false;     // the allocator reported the world explored
+  double explored_at_s = 0;  // when (valid if explored)
+  explore::AllocatorCounters allocator;
+  ExploreCounters driver;
 };
 
 struct RobotSample {
@@ -67,6 +92,10 @@ struct FleetSummary {
   std::uint64_t map_scans = 0, map_scans_unplaced = 0;  // LaserScans inserted / not yet placeable
   double sim_seconds = 0, wall_seconds = 0, speed_factor = 0, steps_per_second = 0;
   std::uint64_t steps = 0;
+  std::vector<CoverageSample> coverage;  // every coverage_period and at the end (empty if 0)
+  /// First recorded time (s) at which coverage reached kCoverageLevels[k]; nullopt if never.
+  std::optional<double> time_to_coverage[4];
+  std::optional<ExploreSummary> explore;  // set in exploration mode
 };
 
 class FleetSim {
@@ -92,6 +121,8 @@ class FleetSim {
   void share_world();
   void reframe_map();
   void step_robots();
+  void explore_step();
+  void record_coverage();
 
   FleetSimConfig cfg_;
   std::vector<std::unique_ptr<hil::World>> worlds_;  // one per robot
@@ -105,6 +136,13 @@ class FleetSim {
   std::atomic<std::size_t> next_robot_{0};  // the next robot a worker takes in this step
   std::uint64_t steps_ = 0;
   Nanos now_ = 0;
+  std::unique_ptr<ExploreDriver> explore_;
+  std::vector<ExploreDriver::RobotView> views_;
+  std::vector<ExploreDriver::PathOrder> orders_;
+  std::vector<Pose2> corrections_;  // local_to_global per robot at the last explore step
+  bool explored_ = false;
+  Nanos next_coverage_ = 0;
+  std::vector<CoverageSample> coverage_;
 };
 
 }  // namespace cairn::sim

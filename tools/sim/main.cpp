@@ -18,6 +18,16 @@ using namespace cairn;
 
 namespace {
 
+// {"50": t or null, "90": ..., "95": ..., "100": ...}: the first recorded time at each coverage level.
+nlohmann::json time_to_coverage(const sim::FleetSummary& s) {
+  nlohmann::json j = nlohmann::json::object();
+  for (std::size_t k = 0; k < 4; ++k) {
+    const std::string key = std::to_string(static_cast<int>(sim::kCoverageLevels[k] * 100 + 0.5));
+    j[key] = s.time_to_coverage[k] ? nlohmann::json(*s.time_to_coverage[k]) : nlohmann::json();
+  }
+  return j;
+}
+
 nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
   nlohmann::json robots = nlohmann::json::array();
   for (const auto& r : s.robots) {
@@ -49,6 +59,34 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                         {"wall_offset_max_cells", s.map.wall_offset_max_cells()}}},
                       {"sim_seconds", s.sim_seconds},
                       {"steps", s.steps}};
+  if (!s.coverage.empty()) j["time_to_coverage_s"] = time_to_coverage(s);  // recorded: --coverage-period / --explore
+  if (s.explore) {
+    const auto& a = s.explore->allocator;
+    const auto& d = s.explore->driver;
+    j["explore"] = {{"explored", s.explore->explored},
+                    {"explored_at_s", s.explore->explored ? nlohmann::json(s.explore->explored_at_s) : nlohmann::json()},
+                    {"allocator",
+                     {{"bids_received", a.bids_received},
+                      {"bids_rejected", a.bids_rejected},
+                      {"rounds", a.rounds},
+                      {"explore_assigned", a.explore_assigned},
+                      {"tasks_kept", a.tasks_kept},
+                      {"switches", a.switches},
+                      {"idles", a.idles},
+                      {"arrivals", a.arrivals},
+                      {"timeouts", a.timeouts},
+                      {"bars_set", a.bars_set},
+                      {"explored_reports", a.explored_reports},
+                      {"assignments_emitted", a.assignments_emitted}}},
+                    {"driver",
+                     {{"bids", d.bids},
+                      {"bids_no_frontier", d.bids_no_frontier},
+                      {"bids_failed", d.bids_failed},
+                      {"plans", d.plans},
+                      {"plan_failures", d.plan_failures},
+                      {"replans_after_bump", d.replans_after_bump},
+                      {"periods_on_distinct_frontiers", d.periods_on_distinct_frontiers}}}};
+  }
   if (with_wall_time) {
     j["wall_seconds"] = s.wall_seconds;
     j["speed_factor"] = s.speed_factor;
@@ -85,6 +123,15 @@ void write_outputs(const std::string& dir, const sim::FleetSim& fleet, const sim
   mapper::write_map_server(grid, dir + "/map");
   mapper::write_png(grid, fleet.estimated_trajectories(), fleet.landmarks(), dir + "/map.png");
   mapper::write_landmarks_json(fleet.landmarks(), dir + "/landmarks.json");
+  if (!s.coverage.empty()) {
+    std::ofstream cov(dir + "/coverage.csv");
+    cov << "t_s,coverage,agreement\n";
+    for (const auto& c : s.coverage) {
+      std::snprintf(line, sizeof line, "%.3f,%.6f,%.6f\n", c.t_s, c.coverage, c.agreement);
+      cov << line;
+    }
+    if (!cov) throw std::runtime_error("cannot write " + dir + "/coverage.csv");
+  }
   std::ofstream(dir + "/summary.json") << to_json(s, false).dump(2) << "\n";  // no wall time: repeatable
   if (!truth || !lm) throw std::runtime_error("cannot write the outputs in " + dir);
 }
@@ -114,6 +161,25 @@ int run(const sim::FleetSimConfig& cfg, const std::string& out, bool json) {
     }
     std::printf("landmarks %zu (poles %zu), rmse to nearest pole %.3f m, %zu farther than 0.5 m\n", s.landmarks, s.poles,
                 s.landmark_rmse_m, s.landmarks_far);
+    if (!s.coverage.empty()) {
+      std::printf("coverage %.3f, agreement %.3f; time to", s.map.coverage, s.map.agreement);
+      for (std::size_t k = 0; k < 4; ++k) {
+        if (s.time_to_coverage[k]) {
+          std::printf(" %.0f%%: %.0f s", sim::kCoverageLevels[k] * 100, *s.time_to_coverage[k]);
+        } else {
+          std::printf(" %.0f%%: -", sim::kCoverageLevels[k] * 100);
+        }
+      }
+      std::printf("\n");
+    }
+    if (s.explore) {
+      std::printf("exploration %s", s.explore->explored ? "ended: explored at" : "not ended (duration cap)");
+      if (s.explore->explored) std::printf(" %.1f s", s.explore->explored_at_s);
+      std::printf("; %llu tasks assigned, %llu timeouts, %llu plan failures\n",
+                  static_cast<unsigned long long>(s.explore->allocator.explore_assigned),
+                  static_cast<unsigned long long>(s.explore->allocator.timeouts),
+                  static_cast<unsigned long long>(s.explore->driver.plan_failures));
+    }
     std::printf("%.0f simulated s in %.1f wall s: %.1fx real time, %.0f steps/s\n", s.sim_seconds, s.wall_seconds,
                 s.speed_factor, s.steps_per_second);
   }
@@ -135,19 +201,28 @@ int main(int argc, char** argv) {
   app.add_option("--robots", cfg.robots, "number of robots (the world's start poses 1..N)")->capture_default_str()->check(CLI::Range(1, 50));
   app.add_option("--duration", cfg.duration_s, "simulated seconds")->capture_default_str()->check(CLI::Range(0.1, 1e6));
   app.add_option("--seed", cfg.seed, "random seed (noise, slip, link loss)")->capture_default_str();
-  app.add_option("--out", out, "write trajectories.csv, landmarks.csv and summary.json here");
+  app.add_option("--out", out, "write trajectories.csv, landmarks.csv, summary.json (and coverage.csv) here");
   app.add_option("--robot-config", robot_config, "the robots' configuration (TOML, as cairn-robot's; default: built-in)");
   app.add_option("--latency-ms", latency_ms, "robot -> base link latency")->capture_default_str()->check(CLI::Range(0.0, 10000.0));
   app.add_option("--loss", cfg.link_loss, "fraction of robot -> base messages lost")->capture_default_str()->check(CLI::Range(0.0, 0.9));
   app.add_flag("--shared-world", cfg.shared_world,
                "one world for all robots: each sees the others' bodies (reflective markers) and collides with them "
                "(the scripted tours are not coordinated: crossing robots stop against each other, counted as bumps)");
+  app.add_flag("--explore", cfg.explore,
+               "explore instead of the scripted tours: frontier bids on the base's map, the base's task allocator, "
+               "paths on the map; ends when the base reports the world explored or at --duration (docs/explore.md)");
+  double coverage_period_s = -1;
+  app.add_option("--coverage-period", coverage_period_s,
+                 "record the map's coverage this often, simulated s (coverage.csv; default 5 with --explore, else off)")
+      ->check(CLI::Range(0.0, 1e6));
   app.add_option("--threads", cfg.threads, "worker threads stepping the robots (the output does not depend on it)")
       ->capture_default_str()->check(CLI::Range(1, 64));
   app.add_flag("--json", json, "print the summary as JSON (with wall time and speed factor)");
   CLI11_PARSE(app, argc, argv);
   return run_program("cairn-sim", [&] {
     cfg.link_latency = static_cast<Nanos>(latency_ms * 1e6);
+    if (coverage_period_s < 0) coverage_period_s = cfg.explore ? 5.0 : 0.0;
+    cfg.coverage_period = static_cast<Nanos>(coverage_period_s * 1e9);
     if (!robot_config.empty()) {
       const firmware::RobotConfig rc = firmware::load_robot_config(robot_config);
       cfg.robot = rc.executive;

@@ -21,7 +21,7 @@ SimRobot::SimRobot(const SimRobotConfig& cfg, hil::World* world)
       world_(world),
       body_(std::make_unique<hil::DiffRobot>(cfg.id, cfg.robot.geometry, cfg.start, cfg.body_radius_m, world)),
       core_(cfg.robot),
-      follower_(there_and_back(cfg.route, cfg.start),
+      follower_(cfg.scripted ? there_and_back(cfg.route, cfg.start) : std::vector<Vec2>{},
                 [&] {
                   firmware::FollowerConfig f = cfg.follower;
                   f.loop = true;
@@ -40,6 +40,14 @@ SimRobot::SimRobot(const SimRobotConfig& cfg, hil::World* world)
   beams_.resize(static_cast<std::size_t>(hil::sweep_beams(angle_deg_, res_centideg_)));
   for (int i = 0; i < 4; ++i) free_scans_.push_back(std::make_unique<lms::LmsScan>());
   body_->set_wheel_scale(cfg.wheel_scale_left, cfg.wheel_scale_right);
+}
+
+void SimRobot::set_path(std::vector<Vec2> local_waypoints, Nanos back_off_until, double back_off_speed) {
+  back_off_until_ = back_off_until;
+  back_off_speed_ = back_off_speed;
+  firmware::FollowerConfig f = cfg_.follower;
+  f.loop = false;
+  follower_ = firmware::PathFollower(std::move(local_waypoints), f);
 }
 
 void SimRobot::physics(Nanos /*now*/, Nanos dt) {
@@ -110,7 +118,11 @@ void SimRobot::tick(Nanos now, firmware::RobotOutputs& out) {
   if (now >= next_control_) {
     next_control_ += cfg_.robot.period;
     double v = 0, w = 0;
-    follower_.command(core_.local_pose(), &v, &w);
+    if (now < back_off_until_) {
+      v = -back_off_speed_;
+    } else {
+      follower_.command(core_.local_pose(), &v, &w);
+    }
     firmware::ControlInputs in;
     in.now = now;
     in.last_link = now;  // the simulated link carries no liveness (safety's link check is the bench's)

@@ -21,6 +21,7 @@ struct SimRobotConfig {
   int id = 1;
   Pose2 start;
   std::vector<Vec2> route;  // world frame; driven there and back, repeatedly
+  bool scripted = true;     // false: no tour; the robot stands until set_path() (exploration)
   firmware::ExecutiveConfig robot;  // the robot's own configuration (as cairn-robot loads it)
   firmware::FollowerConfig follower;
   double body_radius_m = 0.3;
@@ -41,6 +42,14 @@ class SimRobot {
   /// The robot's work due at `now`: wheel samples and the control cycle every RT period,
   /// sweeps of the laser, scans delivered after their line time; outputs to `out`.
   void tick(Nanos now, firmware::RobotOutputs& out);
+
+  /// Exploration: follow these waypoints (the robot's local frame) from now on, replacing
+  /// the current path; an empty path stops the robot. Called between steps only.
+  /// Before following it, back straight off at `back_off_speed` until `back_off_until`
+  /// (0: at once).
+  void set_path(std::vector<Vec2> local_waypoints, Nanos back_off_until = 0, double back_off_speed = 0);
+  /// The current path is finished (or there is none).
+  bool path_done() const { return follower_.done(); }
 
   const Pose2& truth() const { return body_->pose(); }
   /// The robot's local estimate expressed in the world through its (known) start pose.
@@ -74,6 +83,8 @@ class SimRobot {
   Nanos next_control_ = 0, next_sweep_ = 0, sweep_period_ = 0, sweep_time_ = 0;
   int angle_deg_ = 180, res_centideg_ = 50;
   std::uint64_t scans_ = 0;
+  Nanos back_off_until_ = 0;
+  double back_off_speed_ = 0;
 };
 
 }  // namespace cairn::sim

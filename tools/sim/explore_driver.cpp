@@ -1,0 +1,109 @@
+#include "tools/sim/explore_driver.hpp"
+
+#include <algorithm>
+
+namespace cairn::sim {
+
+namespace {
+explore::FrontierBidderConfig sized(explore::FrontierBidderConfig c, std::size_t max_cells) {
+  c.max_cells = max_cells;
+  return c;
+}
+explore::GridPlannerConfig sized(explore::GridPlannerConfig c, std::size_t max_cells) {
+  c.max_cells = max_cells;
+  return c;
+}
+bool moving(msg::TaskKind k) { return k == msg::TaskKind::kExplore || k == msg::TaskKind::kGoto; }
+}  // namespace
+
+ExploreDriver::ExploreDriver(const ExploreConfig& config, std::size_t max_cells)
+    : config_(config),
+      bidder_(sized(config.bidder, max_cells)),
+      planner_(sized(config.planner, max_cells)),
+      allocator_(config.allocator) {}
+
+void ExploreDriver::plan_for(std::size_t index, const RobotView& r, std::vector<PathOrder>* orders, bool back_off) {
+  const auto task = allocator_.task(r.id);
+  PathOrder& o = orders->emplace_back();
+  o.index = index;
+  o.back_off = back_off;
+  bumps_[index] = r.bumps;
+  if (!task || !moving(task->kind) || !r.localised) return;  // stop
+  ++counters_.plans;
+  const explore::PlanStatus s =
+      planner_.plan(grid_.geometry, grid_.cells.data(), r.global.translation(), task->target, &path_);
+  if (s != explore::PlanStatus::kOk) {
+    // The robot stands; the allocator's monitor takes the task back after its timeout.
+    ++counters_.plan_failures;
+    return;
+  }
+  o.global_path = path_;
+}
+
+bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, bool bid_now,
+                            std::vector<PathOrder>* orders) {
+  if (task_id_.size() < robots.size()) {
+    task_id_.resize(robots.size(), 0);
+    bumps_.resize(robots.size(), 0);
+  }
+  for (const RobotView& r : robots) {
+    if (r.localised) allocator_.on_robot_pose(r.id, r.global.translation(), now);
+  }
+  if (bid_now) {
+    for (const RobotView& r : robots) {
+      if (!r.localised) continue;
+      msg::Bid bid;
+      const explore::BidStatus s = bidder_.compute(grid_.geometry, grid_.cells.data(), r.global, &bid);
+      if (s != explore::BidStatus::kOk && s != explore::BidStatus::kNoFrontier) {
+        ++counters_.bids_failed;
+        continue;
+      }
+      // An empty bid says "nothing left for me": the allocator's end of exploration needs it.
+      ++(s == explore::BidStatus::kOk ? counters_.bids : counters_.bids_no_frontier);
+      bid.robot_id = r.id;
+      bid.seq = ++bid_seq_;
+      bid.map_version = map_version_;
+      (void)allocator_.on_bid(bid, now);
+    }
+  }
+  assignments_.clear();
+  if (allocator_.tick(now, &assignments_) && !explored_) {
+    explored_ = true;
+    explored_at_ = now;
+  }
+  std::vector<bool> planned(robots.size(), false);
+  for (const msg::TaskAssignment& a : assignments_) {
+    for (std::size_t k = 0; k < robots.size(); ++k) {
+      if (robots[k].id != a.robot_id) continue;
+      task_id_[k] = a.task_id;
+      plan_for(k, robots[k], orders, robots[k].bumps != bumps_[k]);
+      planned[k] = true;
+    }
+  }
+  // Replan active tasks on the new map (it shows what the old path could not know), and
+  // at once after a bump.
+  for (std::size_t k = 0; k < robots.size(); ++k) {
+    if (planned[k]) continue;
+    const auto task = allocator_.task(robots[k].id);
+    if (!task || !task->active || !moving(task->kind)) continue;
+    const bool bumped = robots[k].bumps != bumps_[k];
+    if (!bid_now && !bumped) continue;
+    if (bumped) ++counters_.replans_after_bump;
+    plan_for(k, robots[k], orders, bumped);
+  }
+  if (bid_now) {
+    std::vector<Vec2> targets;
+    for (const RobotView& r : robots) {
+      const auto task = allocator_.task(r.id);
+      if (task && task->active && task->kind == msg::TaskKind::kExplore) targets.push_back(task->target);
+    }
+    bool distinct = false;
+    for (std::size_t a = 0; a < targets.size() && !distinct; ++a)
+      for (std::size_t b = a + 1; b < targets.size() && !distinct; ++b)
+        distinct = (targets[a] - targets[b]).norm() > config_.allocator.same_frontier_m;
+    if (distinct) ++counters_.periods_on_distinct_frontiers;
+  }
+  return explored_;
+}
+
+}  // namespace cairn::sim
