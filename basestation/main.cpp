@@ -53,6 +53,14 @@ int run(const std::string& config_path, double duration_s) {
   // A file-size limit must give EFBIG (counted, the fusion goes on in memory), not kill the base.
   std::signal(SIGXFSZ, SIG_IGN);
   logger().start();
+  // SIGUSR1 asks for a map export; installed before anything slow, so the signal never
+  // takes its default action (terminating the base), also when the mapper is off.
+  static_assert(std::atomic<bool>::is_always_lock_free);
+  struct sigaction sa {};
+  sa.sa_handler = on_export_signal;
+  sa.sa_flags = SA_RESTART;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGUSR1, &sa, nullptr);
   dds::Participant pp(cfg.dds);
   CAIRN_LOG_INFO("base", "base station '{}' starting; DDS {}", cfg.name, pp.describe());
 
@@ -78,10 +86,6 @@ int run(const std::string& config_path, double duration_s) {
   std::unique_ptr<base::GridMapNode> map;
   if (fusion && cfg.mapper_enabled) {
     map = std::make_unique<base::GridMapNode>(pp, cfg);
-    struct sigaction sa {};
-    sa.sa_handler = on_export_signal;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGUSR1, &sa, nullptr);
     CAIRN_LOG_INFO("base", "map: {} x {} tiles of {} cells; kill -USR1 {} writes it to {}", map->tiles_x(), map->tiles_y(),
                    cairn_TILE_CELLS, static_cast<long long>(getpid()), cfg.map_export_dir.c_str());
   }
@@ -92,9 +96,10 @@ int run(const std::string& config_path, double duration_s) {
     status_reader.wait(20 * kNanosPerMilli);
     const Nanos now = clock.now();
     if (fusion) fusion->poll(now);
-    if (map) {
-      map->poll(now, fusion->fusion());
-      if (g_export_requested.exchange(false)) export_map(*map, *fusion, cfg.map_export_dir, "SIGUSR1");
+    if (map) map->poll(now, fusion->fusion());
+    if (g_export_requested.exchange(false)) {
+      if (map) export_map(*map, *fusion, cfg.map_export_dir, "SIGUSR1");
+      else CAIRN_LOG_WARN("base", "map export requested (SIGUSR1) but the central map is off ([fusion] and [mapper] enabled = true)");
     }
     status_reader.take(
         [&](const cairn_RobotStatus& s, const dds_sample_info_t&) {

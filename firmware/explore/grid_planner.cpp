@@ -57,6 +57,7 @@ GridPlanner::GridPlanner(const GridPlannerConfig& c) : config_(c) {
   flags_.assign(c.max_cells, 0);
   cost_.assign(c.max_cells, 0.0);
   parent_.assign(c.max_cells, kNone);
+  wall_d2_.assign(c.max_cells, 0.0f);
   heap_.assign(c.max_cells, 0);
   heap_pos_.assign(c.max_cells, kNone);
   cells_path_.reserve(c.max_cells);
@@ -67,6 +68,7 @@ GridPlanner::GridPlanner(const GridPlannerConfig& c) : config_(c) {
 void GridPlanner::mark_inflated(const GridGeometry& g, const Cell* cells) {
   const std::size_t n = g.cells();
   for (std::size_t k = 0; k < n; ++k) flags_[k] = cells[k] == Cell::kClear ? 0 : kWall;
+  std::fill_n(wall_d2_.begin(), n, std::numeric_limits<float>::infinity());
   if (config_.robot_radius_m + config_.clearance_margin_m <= 0) return;
   const double rc = config_.robot_radius_m / g.resolution;
   const double rc2 = rc * rc - kEps;
@@ -86,8 +88,12 @@ void GridPlanner::mark_inflated(const GridGeometry& g, const Cell* cells) {
           const std::size_t k = g.index(i + di, j + dj);
           if (flags_[k] & kWall) continue;
           const double d2 = dx * dx + dy * dy;
-          if (d2 < rc2) flags_[k] |= kInflated;
-          else if (d2 < rn2) flags_[k] |= kNearWall;
+          if (d2 < rc2) {
+            flags_[k] |= kInflated;
+            wall_d2_[k] = std::min(wall_d2_[k], static_cast<float>(d2));
+          } else if (d2 < rn2) {
+            flags_[k] |= kNearWall;
+          }
         }
     }
 }
@@ -142,9 +148,11 @@ PlanStatus GridPlanner::plan(const GridGeometry& g, const Cell* cells, Vec2 star
         if ((di == 0 && dj == 0) || !g.contains(i + di, j + dj)) continue;
         const std::size_t nb = g.index(i + di, j + dj);
         if (flags_[nb] & (kWall | kSettled)) continue;
-        // Inflated cells: only on the way out of the start's inflated patch (from the start
-        // or another inflated cell), or as the goal itself; never to cut through a gap.
-        if ((flags_[nb] & kInflated) && !goal_cell(static_cast<std::uint32_t>(nb)) && c != s && !(flags_[c] & kInflated))
+        // Inflated cells: only on the way out of the start's inflated patch (from the start,
+        // or from an inflated cell to one strictly farther from the nearest obstacle: along
+        // the band, and so into a gap narrower than the robot, is never a way), or as the goal.
+        if ((flags_[nb] & kInflated) && !goal_cell(static_cast<std::uint32_t>(nb)) && c != s &&
+            !((flags_[c] & kInflated) && wall_d2_[nb] > wall_d2_[c]))
           continue;
         const bool diag = di != 0 && dj != 0;
         if (diag && ((flags_[g.index(i + di, j)] & kWall) || (flags_[g.index(i, j + dj)] & kWall))) continue;

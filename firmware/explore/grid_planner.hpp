@@ -53,6 +53,7 @@ class GridPlanner {
 
   GridPlannerConfig config_;
   std::vector<std::uint8_t> flags_;
+  std::vector<float> wall_d2_;  // inflated cells: squared distance (cells²) to the nearest obstacle
   std::vector<double> cost_;
   std::vector<std::uint32_t> parent_;
   std::vector<std::uint32_t> heap_, heap_pos_;

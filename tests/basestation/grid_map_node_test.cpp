@@ -131,6 +131,7 @@ TEST(GridMapNode, ScansFromDdsBuildTheMapOnlyChangedTilesGoOutAndALateReaderGets
     EXPECT_EQ(t->robot_id, 0);
     EXPECT_FLOAT_EQ(t->resolution, 0.15f);
     EXPECT_DOUBLE_EQ(t->origin_x, -12.0 + xy.first * 64 * 0.15);
+    EXPECT_DOUBLE_EQ(t->origin_y, -12.0 + xy.second * 64 * 0.15);
     node.tile_cells(xy.first, xy.second, expect.data());
     int diff = 0;
     for (std::size_t c = 0; c < expect.size(); ++c) {
@@ -144,6 +145,14 @@ TEST(GridMapNode, ScansFromDdsBuildTheMapOnlyChangedTilesGoOutAndALateReaderGets
   int i = 0, j = 0;
   ASSERT_TRUE(node.mapper().geometry().cell_of(kStart.x + 5.05 * std::cos(kStart.theta), kStart.y + 5.05 * std::sin(kStart.theta), &i, &j));
   EXPECT_EQ(node.mapper().classify(i, j), mapper::Cell::kObstacle);
+  // ... and so it is in the tile a robot received, at the cell the layout puts it
+  // (row-major from the tile's lower-left corner, rows along y), independently of tile_cells().
+  const auto received = [&](int ci, int cj) { return got.at({ci / 64, cj / 64})->cells[(cj % 64) * 64 + ci % 64]; };
+  EXPECT_GE(received(i, j), 65);
+  EXPECT_NE(received(i, j), kMapTileUnknown);
+  // A cell 2 m ahead of the robot, inside the room, is clear there.
+  ASSERT_TRUE(node.mapper().geometry().cell_of(kStart.x + 2.0 * std::cos(kStart.theta), kStart.y + 2.0 * std::sin(kStart.theta), &i, &j));
+  EXPECT_LE(received(i, j), 20);
 }
 
 TEST(GridMapNode, ExportIsWhatMapServerReadsAndAFailedExportIsReportedNotThrown) {

@@ -16,6 +16,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "firmware/executive/devices.hpp"
@@ -201,8 +203,11 @@ TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
   // machine that is itself a VM loses whole milliseconds of a CPU to its host now and then
   // (CI once saw an 8 ms gap), which no scheduling inside it can prevent.
   const bool realtime = testing::timing_slack() == 1.0;
-  const int rt_cpu = std::max(0, static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)) - 1);
-  testing::CpuStallWitness witness(rt_cpu, 81);
+  const int rt_cpu = testing::last_allowed_cpu();
+  // Only with the production scheduling: under qemu or a sanitizer a FIFO thread would
+  // starve the emulators beside it.
+  std::optional<testing::CpuStallWitness> witness;
+  if (realtime && rt_cpu >= 0) witness.emplace(rt_cpu, 81);
   {
     hil::RobotBenchConfig bc;
     bc.start = {5.0, 10.0, 0.0};
@@ -215,7 +220,8 @@ TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
     ASSERT_GT(h.run_until([&] { return h.exec->rt_snapshot().stop == firmware::StopReason::kNone; }, 10.0), 0)
         << "never ready: stop reason " << firmware::stop_reason_text(h.exec->rt_snapshot().stop);
     // Written by the RT thread before its first snapshot, which the line above has read.
-    rt_granted = h.exec->rt_reports()[3].find("SCHED_FIFO 80") != std::string::npos;
+    // The production scheduling, on the witness's CPU (an affinity refused is not it).
+    rt_granted = h.exec->rt_reports()[3].find("SCHED_FIFO 80, on CPU " + std::to_string(rt_cpu)) != std::string::npos;
     std::printf("%s\n", h.exec->rt_reports()[3].c_str());
     // Along the corridor's centre line (its poles stand 0.5-0.8 m off it): east to the end,
     // back west, east again (~51 m). Waypoints in the world, followed in the local frame.
@@ -253,12 +259,15 @@ TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
   std::printf("travelled %.1f m; local pose error %.3f m = %.2f %% (heading %.2f deg); scans %llu, matched %llu\n",
               odometer, drift, 100 * drift / odometer, std::abs(normalize_angle(end_local.theta - end_truth.theta)) * 57.3,
               static_cast<unsigned long long>(snap.scans), static_cast<unsigned long long>(snap.matched));
-  witness.stop();
+  if (witness) witness->stop();
   std::printf("RT loop: period mean %.1f us, p99 %.1f us, max jitter %.1f us, %llu cycles, %llu deadline misses; scan work p99 %.0f us, max %.0f us\n",
               static_cast<double>(snap.period_mean_us), static_cast<double>(snap.period_p99_us), static_cast<double>(snap.jitter_max_us), static_cast<unsigned long long>(snap.cycles),
               static_cast<unsigned long long>(snap.misses), static_cast<double>(snap.scan_work_p99_us), static_cast<double>(snap.scan_work_max_us));
-  std::printf("CPU %d taken by the platform (witness at SCHED_FIFO 81%s): %zu stalls > 0.1 ms, longest %.2f ms, total %.1f ms\n", rt_cpu,
-              witness.granted() ? "" : " NOT granted", witness.stalls(), ms_of(witness.longest()), ms_of(witness.total()));
+  if (witness) {
+    std::printf("CPU %d taken by the platform (witness at SCHED_FIFO 81%s): %zu stalls > 0.1 ms (%zu not logged), longest %.2f ms, total %.1f ms\n",
+                rt_cpu, witness->granted() ? "" : " NOT granted", witness->stalls(), witness->dropped(), ms_of(witness->longest()),
+                ms_of(witness->total()));
+  }
   EXPECT_GT(odometer, 45.0);
   EXPECT_LT(drift, 0.01 * odometer);
   EXPECT_GT(snap.matched, snap.scans * 9 / 10);
@@ -267,17 +276,27 @@ TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
   // With the production scheduling no control cycle may finish a whole period late. Not
   // under qemu-user (timing slack > 1), where the emulated CPU is several times slower.
   // A miss counts against Cairn when the cycle, less the time the witness saw the platform
-  // take from that CPU (measured on a 0.25 ms grid: up to that much of a stall is unseen),
-  // still ran more than a period past its deadline.
+  // take from that CPU, still ran more than a period past its deadline. The witness wakes
+  // on a 0.25 ms grid, so up to that much of each stall it saw goes unseen: the allowance
+  // is one grid step per overlapping stall, none when it saw none (then this is the strict
+  // zero-miss check). Without a granted witness, or with stalls it could not log, strict.
   if (rt_granted && realtime) {
-    ASSERT_TRUE(witness.granted());
-    EXPECT_LE(snap.misses, snap.first_misses.size()) << "more deadline misses than the log holds";
-    const Nanos period = firmware::ExecutiveConfig{}.period;  // the harness keeps the default
-    for (std::size_t i = 0; i < std::min<std::size_t>(snap.misses, snap.first_misses.size()); ++i) {
-      const auto& m = snap.first_misses[i];
-      const Nanos late = m.finished - m.deadline, taken = witness.stolen(m.deadline, m.finished);
-      std::printf("deadline miss: finished %.2f ms after its deadline, %.2f ms of it taken by the platform\n", ms_of(late), ms_of(taken));
-      EXPECT_LE(late - taken, period + testing::CpuStallWitness::kGrid) << "a deadline miss of Cairn's own with SCHED_FIFO";
+    const bool attributable = witness && witness->granted() && witness->dropped() == 0;
+    EXPECT_TRUE(attributable) << "the stall witness was not granted SCHED_FIFO 81 on CPU " << rt_cpu << " or lost stalls";
+    if (!attributable) {
+      EXPECT_EQ(snap.misses, 0u) << "deadline misses with SCHED_FIFO";
+    } else {
+      EXPECT_LE(snap.misses, snap.first_misses.size()) << "more deadline misses than the log holds";
+      const Nanos period = firmware::ExecutiveConfig{}.period;  // the harness keeps the default
+      for (std::size_t i = 0; i < std::min<std::size_t>(snap.misses, snap.first_misses.size()); ++i) {
+        const auto& m = snap.first_misses[i];
+        std::size_t stalls = 0;
+        const Nanos late = m.finished - m.deadline, taken = witness->stolen(m.deadline, m.finished, &stalls);
+        std::printf("deadline miss: finished %.2f ms after its deadline, %.2f ms of it taken by the platform in %zu stalls\n",
+                    ms_of(late), ms_of(taken), stalls);
+        EXPECT_LE(late - taken, period + static_cast<Nanos>(stalls) * testing::CpuStallWitness::kGrid)
+            << "a deadline miss of Cairn's own with SCHED_FIFO";
+      }
     }
   }
   EXPECT_EQ(g_counted_threads.load(), 5);

@@ -88,6 +88,29 @@ TEST(GridPlanner, WallForcesTheDetourThroughTheWideDoorNotTheNarrowOne) {
   EXPECT_GT(length(m.at(5, 10), path), 2 * 35 * kRes);  // the long way round
 }
 
+TEST(GridPlanner, AStartInTheWallsBandDoesNotSlipAlongItIntoTheNarrowGap) {
+  // The same wall; the robot starts two cells from it (inside the inflated band, 18, 10),
+  // level with the gap. Along the band through the gap is ~1.3 m; by the door ~11 m.
+  Map m(40, 60);
+  m.fill(0, 0, 39, 59, Cell::kClear);
+  m.fill(20, 0, 20, 59, Cell::kObstacle);
+  m.fill(20, 10, 20, 11, Cell::kClear);
+  m.fill(20, 45, 20, 54, Cell::kClear);
+  GridPlanner p(config());
+  std::vector<Vec2> path;
+  ASSERT_EQ(p.plan(m.g, m.c.data(), m.at(18, 10), m.at(35, 10), &path), PlanStatus::kOk);
+  bool through_door = false;
+  for (const Vec2& w : path) {
+    int i = 0, j = 0;
+    ASSERT_TRUE(m.g.cell_of(w.x(), w.y(), &i, &j));
+    if (i >= 19 && i <= 21) {
+      EXPECT_GE(j, 45) << "through the 30 cm gap";
+      through_door = true;
+    }
+  }
+  EXPECT_TRUE(through_door);
+}
+
 TEST(GridPlanner, UnknownCellsAreNeverCrossed) {
   Map m(40, 20);
   m.fill(0, 0, 39, 19, Cell::kClear);

@@ -194,6 +194,7 @@ TEST(RobotProcess, DrivesItsRouteThroughTheRealDriversWithFaultsAndTheBaseFollow
   EXPECT_GT(q.known, 2000u);
   EXPECT_GE(q.agreement, 0.95);
   EXPECT_LE(q.wall_offset_mean_cells(), 1.0);
+  EXPECT_LE(q.wall_offset_max_cells(), 1.5);
 
   const auto final_line = hil.wait_for_line("final robot 1 at", 1s);
   ASSERT_TRUE(final_line) << hil.output();

@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -21,13 +22,24 @@
 
 namespace cairn::testing {
 
+/// The highest CPU this process may run on (the RT loop and its witness go there), or -1.
+inline int last_allowed_cpu() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof set, &set) != 0) return -1;
+  for (int c = CPU_SETSIZE - 1; c >= 0; --c) {
+    if (CPU_ISSET(c, &set)) return c;
+  }
+  return -1;
+}
+
 class CpuStallWitness {
  public:
   static constexpr Nanos kGrid = 250 * 1000;      // the witness's wake-up grid
   static constexpr Nanos kLateFrom = 100 * 1000;  // a wake-up this late is a stall
 
   CpuStallWitness(int cpu, int priority) {
-    stalls_.reserve(1 << 16);  // before the thread starts: it never allocates
+    stalls_.reserve(1 << 18);  // before the thread starts: it never allocates (4 MiB)
     thread_ = std::thread([this, cpu, priority] { run(cpu, priority); });
     while (!started_.load()) std::this_thread::yield();
   }
@@ -41,12 +53,23 @@ class CpuStallWitness {
     running_ = false;
     if (thread_.joinable()) thread_.join();
   }
-  /// After stop(): time within [from, to] in which the witness was due but not running.
-  Nanos stolen(Nanos from, Nanos to) const {
+  /// After stop(): time within [from, to] in which the witness was due but not running,
+  /// and (if `count`) how many recorded stalls overlap it.
+  Nanos stolen(Nanos from, Nanos to, std::size_t* count = nullptr) const {
     Nanos sum = 0;
-    for (const Stall& s : stalls_) sum += std::max<Nanos>(0, std::min(s.woke, to) - std::max(s.due, from));
+    std::size_t n = 0;
+    for (const Stall& s : stalls_) {
+      const Nanos overlap = std::min(s.woke, to) - std::max(s.due, from);
+      if (overlap > 0) {
+        sum += overlap;
+        ++n;
+      }
+    }
+    if (count) *count = n;
     return sum;
   }
+  /// Stalls not recorded because the log was full (the attribution is then incomplete).
+  std::size_t dropped() const { return dropped_; }
   std::size_t stalls() const { return stalls_.size(); }
   Nanos longest() const {
     Nanos m = 0;
@@ -78,7 +101,10 @@ class CpuStallWitness {
       const timespec ts{static_cast<time_t>(due / kNanosPerSecond), static_cast<long>(due % kNanosPerSecond)};
       clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
       const Nanos woke = now();
-      if (woke - due > kLateFrom && stalls_.size() < stalls_.capacity()) stalls_.push_back({due, woke});
+      if (woke - due > kLateFrom) {
+        if (stalls_.size() < stalls_.capacity()) stalls_.push_back({due, woke});
+        else ++dropped_;
+      }
       due += kGrid;
       if (due < woke) due = woke + kGrid;
     }
@@ -87,6 +113,7 @@ class CpuStallWitness {
   std::vector<Stall> stalls_;
   std::atomic<bool> running_{true}, started_{false};
   bool granted_ = false;  // written before started_, read after
+  std::size_t dropped_ = 0;  // read after stop()
   std::thread thread_;
 };
 
