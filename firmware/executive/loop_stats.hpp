@@ -25,7 +25,7 @@ class LoopStats {
       if (jitter > max_jitter_) max_jitter_ = jitter;
     }
     if (finished > deadline + period_) {
-      if (misses_ < miss_log_.size()) miss_log_[misses_] = {deadline, finished};
+      if (misses_ < miss_log_.size()) miss_log_[static_cast<std::size_t>(misses_)] = {deadline, finished};
       ++misses_;
     }
     last_wake_ = wake;

@@ -288,7 +288,7 @@ TEST(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
     } else {
       EXPECT_LE(snap.misses, snap.first_misses.size()) << "more deadline misses than the log holds";
       const Nanos period = firmware::ExecutiveConfig{}.period;  // the harness keeps the default
-      for (std::size_t i = 0; i < std::min<std::size_t>(snap.misses, snap.first_misses.size()); ++i) {
+      for (std::size_t i = 0; i < std::min(static_cast<std::size_t>(snap.misses), snap.first_misses.size()); ++i) {
         const auto& m = snap.first_misses[i];
         std::size_t stalls = 0;
         const Nanos late = m.finished - m.deadline, taken = witness->stolen(m.deadline, m.finished, &stalls);
