@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "firmware/explore/wall_band.hpp"
+
 namespace cairn::explore {
 
 namespace {
@@ -106,29 +108,16 @@ BidStatus FrontierBidder::compute(const GridGeometry& g, const Cell* cells, cons
 }
 
 // Inflation: a cell is blocked when the robot's disc at its centre would overlap an
-// obstacle cell (distance from the centre to the obstacle's square < radius). Only
-// obstacle cells with a non-obstacle 4-neighbour need stamping: the nearest obstacle
-// point of any free cell lies on such a cell's edge.
+// obstacle cell (distance from the centre to the obstacle's square < radius).
 void FrontierBidder::mark_blocked(const GridGeometry& g, const Cell* cells) {
   const std::size_t n = g.cells();
   for (std::size_t k = 0; k < n; ++k) flags_[k] = cells[k] == Cell::kClear ? 0 : kBlocked;
   if (config_.robot_radius_m <= 0) return;
   const double rc = config_.robot_radius_m / g.resolution;
   const double rc2 = rc * rc - kEps;
-  const int reach = static_cast<int>(std::ceil(rc + 0.5));
-  for (int j = 0; j < g.height; ++j)
-    for (int i = 0; i < g.width; ++i) {
-      if (cells[g.index(i, j)] != Cell::kObstacle) continue;
-      bool boundary = false;
-      for (int d = 0; d < 4 && !boundary; ++d)
-        boundary = g.contains(i + kDi4[d], j + kDj4[d]) && cells[g.index(i + kDi4[d], j + kDj4[d])] != Cell::kObstacle;
-      if (!boundary) continue;
-      for (int dj = std::max(-reach, -j); dj <= std::min(reach, g.height - 1 - j); ++dj)
-        for (int di = std::max(-reach, -i); di <= std::min(reach, g.width - 1 - i); ++di) {
-          const double dx = std::max(std::abs(di) - 0.5, 0.0), dy = std::max(std::abs(dj) - 0.5, 0.0);
-          if (dx * dx + dy * dy < rc2) flags_[g.index(i + di, j + dj)] |= kBlocked;
-        }
-    }
+  for_each_cell_near_walls(g, cells, rc, [&](std::size_t k, double d2) {
+    if (d2 < rc2) flags_[k] |= kBlocked;
+  });
 }
 
 // Dijkstra over traversable cells, 8-connected (diagonal steps cost √2·res and may not

@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "firmware/explore/wall_band.hpp"
+
 namespace cairn::explore {
 
 namespace {
@@ -74,28 +76,15 @@ void GridPlanner::mark_inflated(const GridGeometry& g, const Cell* cells) {
   const double rc2 = rc * rc - kEps;
   const double rn = (config_.robot_radius_m + config_.clearance_margin_m) / g.resolution;
   const double rn2 = rn * rn - kEps;
-  const int reach = static_cast<int>(std::ceil(rn + 0.5));
-  for (int j = 0; j < g.height; ++j)
-    for (int i = 0; i < g.width; ++i) {
-      if (cells[g.index(i, j)] != Cell::kObstacle) continue;
-      bool boundary = false;
-      for (int d = 0; d < 4 && !boundary; ++d)
-        boundary = g.contains(i + kDi4[d], j + kDj4[d]) && cells[g.index(i + kDi4[d], j + kDj4[d])] != Cell::kObstacle;
-      if (!boundary) continue;
-      for (int dj = std::max(-reach, -j); dj <= std::min(reach, g.height - 1 - j); ++dj)
-        for (int di = std::max(-reach, -i); di <= std::min(reach, g.width - 1 - i); ++di) {
-          const double dx = std::max(std::abs(di) - 0.5, 0.0), dy = std::max(std::abs(dj) - 0.5, 0.0);
-          const std::size_t k = g.index(i + di, j + dj);
-          if (flags_[k] & kWall) continue;
-          const double d2 = dx * dx + dy * dy;
-          if (d2 < rc2) {
-            flags_[k] |= kInflated;
-            wall_d2_[k] = std::min(wall_d2_[k], static_cast<float>(d2));
-          } else if (d2 < rn2) {
-            flags_[k] |= kNearWall;
-          }
-        }
+  for_each_cell_near_walls(g, cells, rn, [&](std::size_t k, double d2) {
+    if (flags_[k] & kWall) return;
+    if (d2 < rc2) {
+      flags_[k] |= kInflated;
+      wall_d2_[k] = std::min(wall_d2_[k], static_cast<float>(d2));
+    } else if (d2 < rn2) {
+      flags_[k] |= kNearWall;
     }
+  });
 }
 
 PlanStatus GridPlanner::plan(const GridGeometry& g, const Cell* cells, Vec2 start, Vec2 goal, std::vector<Vec2>* path) {
