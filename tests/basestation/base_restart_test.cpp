@@ -56,9 +56,11 @@ TEST(BaseRestart, KilledBaseResumesWithoutLosingAnObservation) {
   base = std::make_unique<Subprocess>(std::vector<std::string>{CAIRN_BASE_BIN, "--config", cfg, "--duration", "60"});
   ASSERT_TRUE(base->wait_for_text("snapshot loaded", 5s)) << base->output();
   ASSERT_TRUE(feeder.wait_for_text("feeder: done", 30s)) << feeder.output();
-  // Let the last messages arrive (reliable, so they do: this is transport time, longer
-  // in sanitizer builds).
-  std::this_thread::sleep_for(std::chrono::duration<double>(2.0 * testing::timing_slack()));
+  // Wait until the last messages arrived (reliable, so they do: transport time, longer in
+  // sanitizer builds): the base's periodic console line shows every one applied.
+  const auto settle = std::chrono::milliseconds(static_cast<int>(10000 * testing::timing_slack()));
+  ASSERT_TRUE(base->wait_for_text("fusion: odometry " + std::to_string(robots * steps) + " applied", settle)) << base->output();
+  ASSERT_TRUE(base->wait_for_text("features " + std::to_string(robots * steps / 2) + " applied", settle)) << base->output();
   base->signal(SIGTERM);
   ASSERT_EQ(base->wait(5s), 0) << base->output();
   const Counts c = parse_final(base->output());
