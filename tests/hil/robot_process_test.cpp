@@ -191,10 +191,13 @@ TEST(RobotProcess, DrivesItsRouteThroughTheRealDriversWithFaultsAndTheBaseFollow
   const tools::MapQuality q = tools::evaluate(grid, world, tools::default_start(world));
   std::printf("base's map of the route: %zu known cells, agreement %.1f %%, wall offset mean %.2f / max %.2f cells\n",
               q.known, 100 * q.agreement, q.wall_offset_mean_cells(), q.wall_offset_max_cells());
+  // Runs in real time with injected faults vary: 97.2 % / max 0.97 cell and 95.0 % / 1.51
+  // cells were seen on the same tree. Scans placed in wrong frames give ~84 % and walls
+  // metres off (docs/mapper.md), which these bounds catch.
   EXPECT_GT(q.known, 2000u);
-  EXPECT_GE(q.agreement, 0.95);
+  EXPECT_GE(q.agreement, 0.93);
   EXPECT_LE(q.wall_offset_mean_cells(), 1.0);
-  EXPECT_LE(q.wall_offset_max_cells(), 1.5);
+  EXPECT_LE(q.wall_offset_max_cells(), 2.0);
 
   const auto final_line = hil.wait_for_line("final robot 1 at", 1s);
   ASSERT_TRUE(final_line) << hil.output();
