@@ -10,7 +10,9 @@ namespace cairn::base {
 
 using ccml::Measurement;
 
-Fusion::Fusion(FusionConfig config) : config_(std::move(config)) {}
+Fusion::Fusion(FusionConfig config) : config_(std::move(config)) {
+  filter_.set_covariance_update(config_.covariance_update);
+}
 
 namespace {
 Mat2 mat2(const msg::Cov2& a) { return msg::to_mat(a); }
@@ -476,6 +478,7 @@ void Fusion::load(std::istream& in) {
   get(in, &size);
   if (size != sizeof(msg::FeatureObservations)) throw std::runtime_error("fusion snapshot: written by another version");
   filter_ = ccml::CcmlFilter::load(in);
+  filter_.set_covariance_update(config_.covariance_update);  // configuration, not state
   get(in, &counters_);
   std::uint64_t n = 0;
   get(in, &n);

@@ -49,6 +49,7 @@ struct FusionConfig {
   bool allow_unknown_robots = false;           // else robots not listed are refused
   std::size_t max_unknown_robots = 8;          // at most this many unlisted robots join
   int iterations = 1;                          // EKF update iterations
+  ccml::CovarianceUpdate covariance_update = ccml::CovarianceUpdate::kSymmetric;  // kJoseph: the old, ~4× dearer form
   std::size_t max_pending = 64;                // feature messages waiting for their odometry, per robot
   std::size_t odometry_window = 1024;          // increments remembered per robot to re-express late features
   double candidate_range = 15.0;               // JCBB candidates within this distance (m)

@@ -237,6 +237,7 @@ UpdateResult CcmlFilter::update(std::span<const Measurement> ms, int iterations,
   Eigen::VectorXd x_iter = x_prior;  // linearisation point
   if (seed) x_iter.segment<3>(robot_offset(seed->robot)) = seed->pose.vector();
   Eigen::MatrixXd PHt(n, m2), S(m2, m2), K;
+  Eigen::LLT<Eigen::MatrixXd> llt;
   Eigen::VectorXd nu(m2);
   std::vector<Block> blocks(ms.size());
   auto Pn = P_.topLeftCorner(n, n);
@@ -271,7 +272,7 @@ UpdateResult CcmlFilter::update(std::span<const Measurement> ms, int iterations,
       result.refused = true;
       return result;
     }
-    const Eigen::LLT<Eigen::MatrixXd> llt(S);
+    llt.compute(S);
     if (llt.info() != Eigen::Success) return result;  // not positive definite: refuse the update
     K = llt.solve(PHt.transpose()).transpose();
     if (!K.allFinite()) {
@@ -288,15 +289,34 @@ UpdateResult CcmlFilter::update(std::span<const Measurement> ms, int iterations,
     for (const auto& [id, slot] : robots_) x_iter(slot.offset + 2) = normalize_angle(x_iter(slot.offset + 2));
     if (step < 1e-9) break;
   }
-  // Joseph form without H: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − K(PHᵀ)ᵀ − (PHᵀ)Kᵀ + K S Kᵀ.
-  const Eigen::MatrixXd KPHt = K * PHt.transpose();
-  Eigen::MatrixXd P_next = Pn - KPHt - KPHt.transpose();
-  P_next.noalias() += K * S * K.transpose();
-  if (!x_iter.allFinite() || !P_next.allFinite()) {
+  if (!x_iter.allFinite()) {
     result.refused = true;
     return result;
   }
-  Pn = 0.5 * (P_next + P_next.transpose());
+  if (covariance_update_ == CovarianceUpdate::kJoseph) {
+    // Joseph form without H: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − K(PHᵀ)ᵀ − (PHᵀ)Kᵀ + K S Kᵀ.
+    const Eigen::MatrixXd KPHt = K * PHt.transpose();
+    Eigen::MatrixXd P_next = Pn - KPHt - KPHt.transpose();
+    P_next.noalias() += K * S * K.transpose();
+    if (!P_next.allFinite()) {
+      result.refused = true;
+      return result;
+    }
+    Pn = 0.5 * (P_next + P_next.transpose());
+  } else {
+    // P − K S Kᵀ = P − (PHᵀ S⁻¹)(PHᵀ)ᵀ = P − W Wᵀ with W = PHᵀ L⁻ᵀ: one rank-2m update of
+    // the lower triangle (half the flops of one n×n×2m product), then mirrored, so P stays
+    // exactly symmetric. S, its LLT and PHᵀ are those of the last linearisation, like K.
+    const Eigen::MatrixXd W = llt.matrixL().solve(PHt.transpose()).transpose();
+    // Checked before P is touched (the update is in place): finite and small enough that
+    // W Wᵀ cannot overflow, so a refusal leaves the state as it was.
+    if (!W.allFinite() || W.cwiseAbs().maxCoeff() > 1e150) {
+      result.refused = true;
+      return result;
+    }
+    Pn.selfadjointView<Eigen::Lower>().rankUpdate(W, -1.0);
+    for (Eigen::Index c = 1; c < n; ++c) Pn.col(c).head(c) = Pn.row(c).head(c).transpose();
+  }
   x_.head(n) = x_iter;
   result.applied = true;
   result.dof = static_cast<int>(m2);

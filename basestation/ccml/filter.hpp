@@ -6,8 +6,9 @@
 //
 // Cost: the measurement Jacobian touches only the observer's and the target's
 // blocks and is never formed densely. A prediction is O(n); an update of m
-// observations is O(n²·m) (Joseph form, expanded so it needs only P·Hᵀ); adding a
-// feature is O(n). No O(n³) step. Memory is the n×n covariance, grown geometrically.
+// observations is O(n²·m): one symmetric rank-2m downdate P − W Wᵀ with W = P Hᵀ L⁻ᵀ
+// (S = L Lᵀ), on one triangle; the expanded Joseph form, about four times the work, is
+// kept as an option. Adding a feature is O(n). No O(n³) step. Memory is the n×n covariance, grown geometrically.
 #pragma once
 
 #include <Eigen/Dense>
@@ -38,6 +39,12 @@ struct Innovation {
   Vec2 nu = Vec2::Zero();   // z - h(x), bearing wrapped
   Mat2 S = Mat2::Identity();
   double nis() const { return nu.dot(S.ldlt().solve(nu)); }
+};
+
+/// How update() forms the posterior covariance. Both are exact in exact arithmetic.
+enum class CovarianceUpdate : std::uint8_t {
+  kSymmetric,  // P − W Wᵀ, W = P Hᵀ L⁻ᵀ: one rank-2m update of the lower triangle, mirrored
+  kJoseph,     // (I−KH) P (I−KH)ᵀ + K R Kᵀ, expanded to use only P Hᵀ: three n×n×2m products
 };
 
 struct UpdateResult {
@@ -86,7 +93,10 @@ class CcmlFilter {
   Innovation innovation(const Measurement& m) const;
   /// Joint innovation and covariance S = H P Hᵀ + R for a set of measurements (joint compatibility).
   void joint_innovation(std::span<const Measurement> ms, Eigen::VectorXd* nu, Eigen::MatrixXd* S) const;
-  /// EKF update with all measurements at once (Joseph form). With iterations > 1 it is an
+  /// Which covariance form update() uses (default kSymmetric). Not part of save()/load().
+  void set_covariance_update(CovarianceUpdate form) { covariance_update_ = form; }
+  CovarianceUpdate covariance_update() const { return covariance_update_; }
+  /// EKF update with all measurements at once. With iterations > 1 it is an
   /// iterated EKF (Gauss-Newton on the MAP), re-linearising at each iterate; the first
   /// linearisation point is the prior mean, except that `seed` (robot, pose) replaces one
   /// robot's pose there (a joining robot localised by JCBB's alignment).
@@ -136,6 +146,7 @@ class CcmlFilter {
   std::unordered_map<RobotId, Slot> robots_;
   std::unordered_map<FeatureId, Slot> features_;
   FeatureId next_feature_ = 1;
+  CovarianceUpdate covariance_update_ = CovarianceUpdate::kSymmetric;
 };
 
 }  // namespace cairn::ccml

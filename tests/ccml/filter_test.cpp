@@ -1,5 +1,6 @@
 // The CCML filter against a dense textbook EKF: the blockwise prediction, update
-// (Joseph form without H) and feature augmentation must give the same numbers.
+// (both covariance forms: the symmetric rank update and the Joseph form without H) and
+// feature augmentation must give the same numbers.
 #include "basestation/ccml/filter.hpp"
 
 #include <gtest/gtest.h>
@@ -50,8 +51,11 @@ TEST(CcmlFilter, PredictMatchesDenseJacobianForm) {
   EXPECT_NEAR(after.theta, want.theta, 1e-12);
 }
 
-TEST(CcmlFilter, UpdateMatchesDenseJosephEkf) {
+class CcmlUpdateForm : public ::testing::TestWithParam<CovarianceUpdate> {};
+
+TEST_P(CcmlUpdateForm, UpdateMatchesDenseJosephEkf) {
   CcmlFilter f = make_filter();
+  f.set_covariance_update(GetParam());
   const Eigen::VectorXd x0 = f.mean();
   const Eigen::MatrixXd P0 = f.covariance();
   const auto n = static_cast<Eigen::Index>(f.dimension());
@@ -101,6 +105,59 @@ TEST(CcmlFilter, UpdateMatchesDenseJosephEkf) {
   EXPECT_TRUE(f.mean().isApprox(x_expected, 1e-10));
   EXPECT_LT(f.max_asymmetry(), 1e-15);
   EXPECT_GT(f.min_eigenvalue(), 0.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(BothForms, CcmlUpdateForm, ::testing::Values(CovarianceUpdate::kSymmetric, CovarianceUpdate::kJoseph),
+                         [](const auto& param_info) { return param_info.param == CovarianceUpdate::kSymmetric ? "Symmetric" : "Joseph"; });
+
+TEST(CcmlFilter, SymmetricUpdateIsTheDefault) {
+  EXPECT_EQ(CcmlFilter().covariance_update(), CovarianceUpdate::kSymmetric);
+}
+
+// A long random run: the symmetric form keeps P exactly symmetric (it mirrors one
+// triangle), stays positive definite, and agrees with the Joseph form step for step.
+TEST(CcmlFilter, BothCovarianceFormsAgreeOverALongRun) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> g(0, 1);
+  CcmlFilter sym, jos;
+  jos.set_covariance_update(CovarianceUpdate::kJoseph);
+  for (CcmlFilter* f : {&sym, &jos}) {
+    f->add_robot(1, {0, 0, 0}, Vec3(0.01, 0.01, 0.001).asDiagonal());
+    f->add_robot(2, {1, 1, 0.3}, Vec3(0.04, 0.04, 0.004).asDiagonal());
+  }
+  std::vector<Vec2> landmarks;
+  for (int i = 0; i < 25; ++i) landmarks.emplace_back(g(rng) * 8, g(rng) * 8);
+  std::vector<FeatureId> ids(landmarks.size(), 0);
+  Pose2 truth[2] = {{0, 0, 0}, {1, 1, 0.3}};
+  for (int step = 0; step < 400; ++step) {
+    std::vector<Measurement> ms;
+    for (RobotId r : {1u, 2u}) {
+      const Pose2 d{0.15, 0, 0.06 * g(rng)};
+      truth[r - 1] = compose(truth[r - 1], d);
+      for (CcmlFilter* f : {&sym, &jos}) f->predict(r, d, Vec3(1e-4, 1e-4, 1e-5).asDiagonal());
+      for (std::size_t i = 0; i < landmarks.size(); ++i) {
+        RangeBearing z = observe_point(truth[r - 1], landmarks[i]);
+        if (z.range > 6 || z.range < 0.3) continue;
+        z.range += 0.05 * g(rng);
+        z.bearing += 0.01 * g(rng);
+        const Mat2 R = Vec2(0.0025, 1e-4).asDiagonal();
+        if (!ids[i]) {
+          ids[i] = sym.add_feature(r, z, R);
+          ASSERT_EQ(jos.add_feature(r, z, R), ids[i]);
+        } else {
+          ms.push_back({r, Measurement::Target::kFeature, ids[i], z, R});
+        }
+      }
+    }
+    const UpdateResult a = sym.update(ms), b = jos.update(ms);
+    ASSERT_EQ(a.applied, b.applied);
+    ASSERT_EQ(sym.max_asymmetry(), 0.0) << "step " << step;
+  }
+  const Eigen::MatrixXd Ps = sym.covariance(), Pj = jos.covariance();
+  EXPECT_LT((Ps - Pj).cwiseAbs().maxCoeff(), 1e-9 * Pj.cwiseAbs().maxCoeff());
+  EXPECT_LT((sym.mean() - jos.mean()).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_GT(sym.min_eigenvalue(), 0.0);
+  EXPECT_GE(sym.feature_count(), 10u);  // the run exercised a real map (12 of the 25 points)
 }
 
 TEST(CcmlFilter, FeatureAugmentationMatchesDense) {
