@@ -80,6 +80,7 @@ void read_safety(const ConfigSection& s, SafetyLimits* l) {
 
 void read_mapping(const ConfigSection& m, ExecutiveConfig* e) {
   e->scan_publish_every = static_cast<int>(m.integer_or("scan_publish_every", e->scan_publish_every, {1, 1000}));
+  e->feature_period = seconds_key(m, "feature_period_s", e->feature_period, {0.0, 10.0});
   e->localmap.keyframes = static_cast<int>(m.integer_or("keyframes", e->localmap.keyframes, {1, 100}));
   e->localmap.grid.size_cells = static_cast<int>(m.integer_or("grid_cells", e->localmap.grid.size_cells, {64, 4096}));
   e->localmap.grid.resolution_m = m.number_or("grid_resolution_m", e->localmap.grid.resolution_m, {0.01, 0.5});

@@ -150,8 +150,12 @@ void RobotCore::on_scan(const lms::LmsScan& scan, Nanos now, RobotOutputs& out) 
   }
 
   // Retroreflective features.
+  const bool feature_due = !features_sent_ || scan.stamp - last_feature_stamp_ >= cfg_.feature_period;
+  if (!feature_due) return;
   extract_features(scan, cfg_.laser_mount, cfg_.features, &features_);
   if (features_.count > 0) {
+    last_feature_stamp_ = scan.stamp;
+    features_sent_ = true;
     msg::FeatureObservations& f = *feature_msg_;
     f.robot_id = cfg_.robot_id;
     f.boot_epoch = cfg_.boot_epoch;

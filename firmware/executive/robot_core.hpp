@@ -100,6 +100,8 @@ class RobotCore {
   ScanFeatures features_;
   std::uint32_t odom_seq_ = 0, laser_seq_ = 0, feature_seq_ = 0, scans_seen_ = 0;
   Nanos last_odom_t_ = 0, last_scan_ = -1;
+  Nanos last_feature_stamp_ = 0;  // stamp of the last scan whose features went out
+  bool features_sent_ = false;
   StopReason stop_ = StopReason::kDrivesNotReady;
   double v_ = 0, w_ = 0;
 };

@@ -36,6 +36,9 @@ TEST(RobotConfig, StatusOnlyAndFullRobot) {
   ASSERT_EQ(full.motion.waypoints.size(), 2u);
   EXPECT_DOUBLE_EQ(full.motion.waypoints[1].y(), 1.5);
   EXPECT_EQ(full.executive.safety.link_timeout, 0);
+  EXPECT_EQ(full.executive.feature_period, 0) << "default: features with every scan";
+  const auto slow = firmware::parse_robot_config(kDevices + "[mapping]\nfeature_period_s = 0.2\n", "robot.toml");
+  EXPECT_EQ(slow.executive.feature_period, 200 * kNanosPerMilli);
 }
 
 TEST(RobotConfig, ErrorsNameTheKey) {
@@ -45,6 +48,7 @@ TEST(RobotConfig, ErrorsNameTheKey) {
   EXPECT_NE(error_of(kDevices + "lms_resolution_deg = 0.25\n").find("lms_angle_deg = 100"), std::string::npos);
   EXPECT_NE(error_of(kDevices + "[motion]\nwaypoints = [1, 2, 3]\n").find("odd count"), std::string::npos);
   EXPECT_NE(error_of(kDevices + "[rt]\nperiod_s = 0.5\n").find("rt.period_s"), std::string::npos);
+  EXPECT_NE(error_of(kDevices + "[mapping]\nfeature_period_s = 11\n").find("mapping.feature_period_s"), std::string::npos);
   EXPECT_NE(error_of(kDevices + "[saftey]\nmax_v = 1\n").find("did you mean 'safety'"), std::string::npos);
 }
 

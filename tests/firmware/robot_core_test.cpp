@@ -88,6 +88,29 @@ TEST(RobotCore, MessagesCarryTheBootEpochSequenceAndOdometryLink) {
   }
 }
 
+// mapping.feature_period_s: scans every 15 ms with the pole in each, a period of 50 ms.
+// Features go out with scan 1 (15 ms), then with the first scan at least 50 ms later:
+// scans 5, 9, 13, 17 (75, 135, 195, 255 ms); every scan still gives its increment.
+TEST(RobotCore, FeaturesGoOutAtMostOncePerFeaturePeriod) {
+  firmware::ExecutiveConfig cfg;
+  cfg.feature_period = 50 * kMs;
+  firmware::RobotCore core(cfg);
+  Recorder out;
+  for (int k = 1; k <= 20; ++k) {
+    const Nanos t = k * 15 * kMs;
+    core.on_wheels(wheels_at(cfg.geometry, 0.0, t));
+    core.on_scan(scan_at(t, /*pole=*/true), t, out);
+  }
+  ASSERT_EQ(out.increments.size(), 20u);
+  ASSERT_EQ(out.observations.size(), 5u);
+  const int sent[] = {1, 5, 9, 13, 17};
+  for (std::size_t i = 0; i < 5; ++i) {
+    EXPECT_EQ(out.observations[i].stamp, sent[i] * 15 * kMs);
+    EXPECT_EQ(out.observations[i].seq, i + 1) << "feature seq counts messages sent, without gaps";
+    EXPECT_EQ(out.observations[i].odom_seq, static_cast<std::uint32_t>(sent[i])) << "still linked to its scan's increment";
+  }
+}
+
 // Wheel samples every 10 ms at 1 m/s; a scan stamped at 50 ms sweeps 361 beams of
 // 18.5 us, so its mid-sweep is 53.34 ms: its increment is the motion up to there, the
 // 10 ms wheel sample that spans it split in proportion, and the rest waits for the next scan.
