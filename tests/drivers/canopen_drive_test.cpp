@@ -152,27 +152,47 @@ TEST(CanopenDrives, TwoDrivesMoveASimulatedRobotInTheWorld) {
   hil::World world = hil::World::parse("box 0 0 20 20\n", "hall");
   canopen::DiffDriveGeometry g;
   hil::DiffRobot robot(1, g, {5, 5, 0}, 0.3, &world);
-  auto drive_for = [&](double v, double w, double seconds) {
+  // Drives at (v, w) until `done` holds or `timeout` s pass: the wall clock's pace is not
+  // the subject here (simulated-time tests own the timing), the wheels are. Returns the
+  // drives' velocities at the end, which must equal the command once the ramp is over.
+  struct Wheels {
+    double left, right;
+  };
+  auto drive_until = [&](double v, double w, auto done, double timeout) {
     const canopen::WheelCommand c = canopen::wheel_command(g, v, w);
     const std::int32_t cmd[] = {c.left, c.right};
     b.master([&](canopen::DriveMaster& m) { return (m.command(cmd), 0); });
-    const Nanos end = MonotonicClock::instance().now() + seconds_to_nanos(seconds);
+    const Nanos end = MonotonicClock::instance().now() + seconds_to_nanos(timeout);
     Nanos last = MonotonicClock::instance().now();
-    while (MonotonicClock::instance().now() < end) {
+    Wheels wheels{0, 0};
+    while (!done() && MonotonicClock::instance().now() < end) {
       usleep(5000);
       const Nanos now = MonotonicClock::instance().now();
-      const double l = b.drives_[0]->with_node([](hil::DriveNode& n) { return n.velocity(); });
-      const double r = b.drives_[1]->with_node([](hil::DriveNode& n) { return n.velocity(); });
-      robot.step(l, r, nanos_to_seconds(now - last));
+      wheels.left = b.drives_[0]->with_node([](hil::DriveNode& n) { return n.velocity(); });
+      wheels.right = b.drives_[1]->with_node([](hil::DriveNode& n) { return n.velocity(); });
+      robot.step(wheels.left, wheels.right, nanos_to_seconds(now - last));
       last = now;
     }
+    EXPECT_TRUE(done()) << "not reached in " << timeout << " s; pose (" << robot.pose().x << ", " << robot.pose().y << ", "
+                        << robot.pose().theta << ")";
+    EXPECT_NEAR(wheels.left, c.left, 0.02 * std::abs(c.left) + 1) << "left drive's steady velocity";
+    EXPECT_NEAR(wheels.right, c.right, 0.02 * std::abs(c.right) + 1) << "right drive's steady velocity";
+    return wheels;
   };
-  drive_for(0.5, 0.0, 2.0);
-  EXPECT_NEAR(robot.pose().x, 6.0, 0.1);  // ~1 m ahead (minus the acceleration ramp)
-  EXPECT_NEAR(robot.pose().y, 5.0, 0.02);
-  drive_for(0.0, 0.5, 2.0);                // turn on the spot
-  EXPECT_NEAR(robot.pose().theta, 1.0, 0.1);
-  drive_for(0.0, 0.0, 0.3);
+  drive_until(0.5, 0.0, [&] { return robot.pose().x >= 6.0; }, 5.0);  // 1 m straight ahead
+  EXPECT_NEAR(robot.pose().x, 6.0, 0.05);
+  EXPECT_NEAR(robot.pose().y, 5.0, 0.01);  // straight: equal wheels
+  EXPECT_NEAR(robot.pose().theta, 0.0, 0.01);
+  // Turning on the spot, the robot moves only while its wheels ramp down from 0.5 m/s at
+  // the profile acceleration (0x6083 = 400 000 increments/s²): at most v²/2a.
+  const double a = 400000.0 * g.wheel_radius_m / g.counts_per_wheel_rad();
+  const double ramp_m = 0.5 * 0.5 / (2 * a);
+  const Pose2 before_turn = robot.pose();
+  drive_until(0.0, 0.5, [&] { return robot.pose().theta >= 1.0; }, 5.0);
+  EXPECT_NEAR(robot.pose().theta, 1.0, 0.05);
+  EXPECT_LT(std::hypot(robot.pose().x - before_turn.x, robot.pose().y - before_turn.y), ramp_m + 0.01);
+  auto wheel_speed = [&](int k) { return b.drives_[k]->with_node([](hil::DriveNode& n) { return n.velocity(); }); };
+  drive_until(0.0, 0.0, [&] { return wheel_speed(0) == 0.0 && wheel_speed(1) == 0.0; }, 1.0);
   std::printf("robot after 1 m straight and a 1 rad turn: (%.3f, %.3f, %.3f)\n", robot.pose().x, robot.pose().y,
               robot.pose().theta);
 }
