@@ -183,10 +183,11 @@ TEST(CanopenDrives, TwoDrivesMoveASimulatedRobotInTheWorld) {
   EXPECT_NEAR(robot.pose().x, 6.0, 0.05);
   EXPECT_NEAR(robot.pose().y, 5.0, 0.01);  // straight: equal wheels
   EXPECT_NEAR(robot.pose().theta, 0.0, 0.01);
-  // Turning on the spot, the robot moves only while its wheels ramp down from 0.5 m/s at
-  // the profile acceleration (0x6083 = 400 000 increments/s²): at most v²/2a.
+  // Turning on the spot, the robot moves only until the new command reaches the drives (the
+  // next SYNC's RPDO: 10 ms, allowed 100 ms under load) and while its wheels ramp down from
+  // 0.5 m/s at the profile acceleration (0x6083 = 400 000 increments/s²): v²/2a = 4.1 cm.
   const double a = 400000.0 * g.wheel_radius_m / g.counts_per_wheel_rad();
-  const double ramp_m = 0.5 * 0.5 / (2 * a);
+  const double ramp_m = 0.5 * 0.5 / (2 * a) + 0.5 * 0.1;
   const Pose2 before_turn = robot.pose();
   drive_until(0.0, 0.5, [&] { return robot.pose().theta >= 1.0; }, 5.0);
   EXPECT_NEAR(robot.pose().theta, 1.0, 0.05);
