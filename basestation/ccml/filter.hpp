@@ -7,8 +7,8 @@
 // Cost: the measurement Jacobian touches only the observer's and the target's
 // blocks and is never formed densely. A prediction is O(n); an update of m
 // observations is O(n²·m): one symmetric rank-2m downdate P − W Wᵀ with W = P Hᵀ L⁻ᵀ
-// (S = L Lᵀ), on one triangle; the expanded Joseph form, about four times the work, is
-// kept as an option. Adding a feature is O(n). No O(n³) step. Memory is the n×n covariance, grown geometrically.
+// (S = L Lᵀ), on one triangle; the expanded Joseph form (two full n×n×2m products, about
+// four times the flops) is kept as an option. Adding a feature is O(n). No O(n³) step. Memory is the n×n covariance, grown geometrically.
 #pragma once
 
 #include <Eigen/Dense>
@@ -44,7 +44,7 @@ struct Innovation {
 /// How update() forms the posterior covariance. Both are exact in exact arithmetic.
 enum class CovarianceUpdate : std::uint8_t {
   kSymmetric,  // P − W Wᵀ, W = P Hᵀ L⁻ᵀ: one rank-2m update of the lower triangle, mirrored
-  kJoseph,     // (I−KH) P (I−KH)ᵀ + K R Kᵀ, expanded to use only P Hᵀ: three n×n×2m products
+  kJoseph,     // (I−KH) P (I−KH)ᵀ + K R Kᵀ, expanded to use only P Hᵀ: two full n×n×2m products
 };
 
 struct UpdateResult {

@@ -1,5 +1,6 @@
 #include "firmware/executive/robot_core.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -150,7 +151,10 @@ void RobotCore::on_scan(const lms::LmsScan& scan, Nanos now, RobotOutputs& out) 
   }
 
   // Retroreflective features.
-  const bool feature_due = !features_sent_ || scan.stamp - last_feature_stamp_ >= cfg_.feature_period;
+  // A scan up to a quarter period (at most 2 ms) early counts as due: stamp jitter must not
+  // push a period that is a multiple of the scan interval to the scan after.
+  const Nanos early = std::min<Nanos>(cfg_.feature_period / 4, 2 * kNanosPerMilli);
+  const bool feature_due = !features_sent_ || scan.stamp - last_feature_stamp_ >= cfg_.feature_period - early;
   if (!feature_due) return;
   extract_features(scan, cfg_.laser_mount, cfg_.features, &features_);
   if (features_.count > 0) {

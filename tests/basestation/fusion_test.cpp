@@ -176,6 +176,22 @@ TEST(Fusion, SnapshotRestoresTheExactState) {
   EXPECT_EQ(a.filter().covariance(), b.filter().covariance());
 }
 
+// The covariance form is configuration, not state: a snapshot loaded into a base configured
+// for the Joseph form keeps using it (and one configured for the default keeps the default).
+TEST(Fusion, SnapshotKeepsTheConfiguredCovarianceForm) {
+  const FleetScenario s = testing::make_fleet_scenario(2, 100);
+  FusionConfig joseph = config_for(s);
+  joseph.covariance_update = ccml::CovarianceUpdate::kJoseph;
+  Fusion a(config_for(s)), b(joseph);
+  EXPECT_EQ(b.filter().covariance_update(), ccml::CovarianceUpdate::kJoseph);
+  for (const auto& m : s.messages) feed(&a, m);
+  std::stringstream snap;
+  a.save(snap);
+  b.load(snap);
+  EXPECT_EQ(b.filter().covariance_update(), ccml::CovarianceUpdate::kJoseph);
+  EXPECT_EQ(a.filter().covariance_update(), ccml::CovarianceUpdate::kSymmetric);
+}
+
 TEST(StateStore, CrashAndRestoreLosesNothing) {
   const FleetScenario s = testing::make_fleet_scenario(2, 300);
   const auto dir = std::filesystem::temp_directory_path() / ("cairn-store-" + std::to_string(getpid()));

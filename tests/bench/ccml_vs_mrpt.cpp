@@ -75,6 +75,7 @@ void configure_mrpt(mrpt::slam::CRangeBearingKFSLAM2D& slam, const Noise& n) {
 struct Timing {
   int features;
   double cairn_us, mrpt_us;
+  double joseph_us = 0;  // Cairn's filter with the Joseph-form covariance update (its old form), same steps
   double cairn_err = 0, mrpt_err = 0;  // final robot position error (m)
 };
 
@@ -103,9 +104,12 @@ Timing time_update(int n_features, int steps, std::uint64_t seed) {
     }
     mrpt_step(mrpt_f, {}, Q, obs, noise);
   }
+  // The same filter with the Joseph-form update, from the same state (same-run baseline).
+  CcmlFilter joseph_f = cairn_f;
+  joseph_f.set_covariance_update(CovarianceUpdate::kJoseph);
   // Timed steps: small motion, 8 known landmarks observed.
   Pose2 truth{};
-  std::vector<double> tc, tm;
+  std::vector<double> tc, tm, tj;
   for (int k = 0; k < steps; ++k) {
     const Pose2 delta{0.05, 0, 0.01};
     truth = compose(truth, delta);
@@ -125,14 +129,19 @@ Timing time_update(int n_features, int steps, std::uint64_t seed) {
     auto t1 = Clock::now();
     mrpt_step(mrpt_f, delta, Q, obs, noise);
     auto t2 = Clock::now();
+    joseph_f.predict(1, delta, Q);
+    joseph_f.update(ms);
+    auto t3 = Clock::now();
     tc.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
     tm.push_back(std::chrono::duration<double, std::micro>(t2 - t1).count());
+    tj.push_back(std::chrono::duration<double, std::micro>(t3 - t2).count());
   }
   auto median = [](std::vector<double> v) {
     std::sort(v.begin(), v.end());
     return v[v.size() / 2];
   };
   Timing t{n_features, median(tc), median(tm)};
+  t.joseph_us = median(tj);
   const Pose2 ce = cairn_f.robot_pose(1);
   mrpt::poses::CPosePDFGaussian mp;
   mrpt_f.getCurrentRobotPose(mp);
@@ -251,16 +260,17 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   nlohmann::json out = {{"timing", nlohmann::json::array()}};
   if (!json) {
-    std::printf("%-10s %14s %14s %10s %14s %14s\n", "features", "cairn (us)", "mrpt (us)", "mrpt/cairn", "cairn err (m)",
-                "mrpt err (m)");
+    std::printf("%-10s %14s %14s %10s %14s %14s %14s %12s\n", "features", "cairn (us)", "mrpt (us)", "mrpt/cairn", "cairn err (m)",
+                "mrpt err (m)", "joseph (us)", "joseph/cairn");
   }
   for (int n : {50, 200, 500}) {
     const Timing t = time_update(n, steps, 7);
     out["timing"].push_back({{"features", n}, {"cairn_us", t.cairn_us}, {"mrpt_us", t.mrpt_us}, {"ratio", t.mrpt_us / t.cairn_us},
-                             {"cairn_error_m", t.cairn_err}, {"mrpt_error_m", t.mrpt_err}});
+                             {"cairn_error_m", t.cairn_err}, {"mrpt_error_m", t.mrpt_err},
+                             {"cairn_joseph_us", t.joseph_us}, {"joseph_over_cairn", t.joseph_us / t.cairn_us}});
     if (!json) {
-      std::printf("%-10d %14.1f %14.1f %10.1f %14.3f %14.3f\n", n, t.cairn_us, t.mrpt_us, t.mrpt_us / t.cairn_us, t.cairn_err,
-                  t.mrpt_err);
+      std::printf("%-10d %14.1f %14.1f %10.1f %14.3f %14.3f %14.1f %12.2f\n", n, t.cairn_us, t.mrpt_us, t.mrpt_us / t.cairn_us,
+                  t.cairn_err, t.mrpt_err, t.joseph_us, t.joseph_us / t.cairn_us);
     }
     std::fflush(stdout);
   }

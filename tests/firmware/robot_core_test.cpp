@@ -111,6 +111,27 @@ TEST(RobotCore, FeaturesGoOutAtMostOncePerFeaturePeriod) {
   }
 }
 
+// A period of exactly three scan intervals (45 ms at 15 ms) with stamps jittering ±1 ms
+// (a scan may count up to 2 ms early)
+// keeps every third scan; a due scan that sees no feature sends nothing and does not use
+// up the period: the pole is hidden in scan 7, so features go out with 1, 4, 8, 11.
+TEST(RobotCore, FeaturePeriodToleratesStampJitterAndWaitsForFeatures) {
+  firmware::ExecutiveConfig cfg;
+  cfg.feature_period = 45 * kMs;
+  firmware::RobotCore core(cfg);
+  Recorder out;
+  std::vector<Nanos> stamps;
+  for (int k = 1; k <= 12; ++k) {
+    const Nanos t = k * 15 * kMs + (k % 2 == 0 ? 1 : -1) * kMs;
+    stamps.push_back(t);
+    core.on_wheels(wheels_at(cfg.geometry, 0.0, t));
+    core.on_scan(scan_at(t, /*pole=*/k != 7), t, out);
+  }
+  const int sent[] = {1, 4, 8, 11};
+  ASSERT_EQ(out.observations.size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_EQ(out.observations[i].stamp, stamps[static_cast<std::size_t>(sent[i] - 1)]);
+}
+
 // Wheel samples every 10 ms at 1 m/s; a scan stamped at 50 ms sweeps 361 beams of
 // 18.5 us, so its mid-sweep is 53.34 ms: its increment is the motion up to there, the
 // 10 ms wheel sample that spans it split in proportion, and the rest waits for the next scan.
