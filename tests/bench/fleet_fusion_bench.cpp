@@ -118,7 +118,8 @@ Stream make_stream(const Options& o) {
       f.odom_seq = inc.seq;
       for (std::size_t p = 0; p < s.poles.size() && f.n_features < msg::kMaxFeatures; ++p) {
         const RangeBearing z = observe_point(truth[ri], s.poles[p]);
-        if (z.range > range_max || std::abs(z.bearing) > std::numbers::pi / 2) continue;  // a 180° laser
+        // A 180° laser from 0.3 m (a robot's circle may pass through a pole here: nothing collides).
+        if (z.range > range_max || z.range < 0.3 || std::abs(z.bearing) > std::numbers::pi / 2) continue;
         msg::Feature& ft = f.features[f.n_features++];
         ft.range = z.range + sr * g(rng);
         ft.bearing = normalize_angle(z.bearing + sb * g(rng));
