@@ -8,7 +8,8 @@
 // blocks and is never formed densely. A prediction is O(n); an update of m
 // observations is O(n²·m): one symmetric rank-2m downdate P − W Wᵀ with W = P Hᵀ L⁻ᵀ
 // (S = L Lᵀ), on one triangle; the expanded Joseph form (two full n×n×2m products, about
-// four times the flops) is kept as an option. Adding a feature is O(n). No O(n³) step. Memory is the n×n covariance, grown geometrically.
+// four times the flops) is kept as an option. Adding a feature is O(n). No O(n³) step.
+// Memory is the n×n covariance, grown geometrically.
 #pragma once
 
 #include <Eigen/Dense>

@@ -38,6 +38,7 @@
 #include <nlohmann/json.hpp>
 
 #include "basestation/fusion.hpp"
+#include "tests/support/percentile.hpp"
 
 using namespace cairn;
 
@@ -146,11 +147,7 @@ double thread_cpu_s() {
   return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
 }
 
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[static_cast<std::size_t>(std::min<double>(static_cast<double>(v.size()) - 1, q * static_cast<double>(v.size())))];
-}
+using cairn::testing::percentile;
 
 struct Figures {
   std::string name;

@@ -28,6 +28,7 @@
 #include "firmware/executive/path_follower.hpp"
 #include "firmware/robot_bridge.hpp"
 #include "hil/bench/robot_bench.hpp"
+#include "tests/support/percentile.hpp"
 
 using namespace cairn;
 
@@ -62,11 +63,7 @@ struct Phase {
   std::uint64_t unmatched = 0;
 };
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
-}
+using cairn::testing::percentile;
 
 Phase run_phase(const std::string& world_path, double seconds, int priority, bool load) {
   const hil::World world = hil::World::load(world_path);
