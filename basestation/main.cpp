@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "basestation/base_config.hpp"
+#include "basestation/estop_reset.hpp"
 #include "basestation/fleet.hpp"
 #include "basestation/fusion_node.hpp"
 #include "basestation/grid_map_node.hpp"
@@ -133,32 +134,18 @@ int run(const std::string& config_path, double duration_s) {
   return 0;
 }
 
-// `cairn-base --reset-estop ID`: the operator's e-stop reset for one robot, sent as one
-// SafetyReset sample (reliable, volatile) once a robot's reader is matched; the robot
-// accepts it only when its e-stop reads released (docs/firmware.md, "E-stop").
+// `cairn-base --reset-estop ID`: the operator's e-stop reset for one robot, delivered to
+// that robot's reader and confirmed by its status (basestation/estop_reset.hpp); the
+// robot accepts it only when its e-stop reads released (docs/firmware.md, "E-stop").
 int reset_estop(const std::string& config_path, int robot) {
   const base::BaseConfig cfg = base::load_base_config(config_path);
   dds::Participant pp(cfg.dds);
-  dds::Topic<cairn_SafetyReset> topic(pp);
-  dds::Writer<cairn_SafetyReset> writer(pp, topic, dds::state_qos(4));
-  if (!writer.wait_for_readers(1, 5 * kNanosPerSecond)) {
-    std::fprintf(stderr, "cairn-base: no robot is listening for e-stop resets on this DDS domain (waited 5 s)\n");
-    return 1;
-  }
-  cairn_SafetyReset r{};
-  r.robot_id = static_cast<std::uint16_t>(robot);
-  r.seq = 1;
-  r.issued_ns = MonotonicClock::instance().now();
-  dds::set_text(r.issued_by, "cairn-base " + cfg.name);
-  if (!writer.write(r)) {
-    std::fprintf(stderr, "cairn-base: writing the reset failed: %s\n", dds_strretcode(writer.last_error()));
-    return 1;
-  }
-  // Reliable: wait until every matched reader acknowledged it before the participant goes.
-  dds_wait_for_acks(writer.handle(), DDS_SECS(2));
-  std::printf("cairn-base: e-stop reset sent to robot %d; it takes effect only if its e-stop is released "
-              "(RobotStatus stop reason 8 -> 2 -> 0)\n", robot);
-  return 0;
+  base::EstopResetRequest req;
+  req.robot = static_cast<std::uint16_t>(robot);
+  req.issued_by = "cairn-base " + cfg.name;
+  const base::EstopResetResult r = base::reset_estop(pp, req);
+  std::fprintf(r.ok() ? stdout : stderr, "cairn-base: %s\n", r.message.c_str());
+  return r.ok() ? 0 : 1;
 }
 
 }  // namespace

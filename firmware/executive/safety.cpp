@@ -5,21 +5,6 @@
 
 namespace cairn::firmware {
 
-const char* stop_reason_text(StopReason r) {
-  switch (r) {
-    case StopReason::kNone: return "none";
-    case StopReason::kEstop: return "e-stop pressed";
-    case StopReason::kDrivesNotReady: return "drives not operation enabled";
-    case StopReason::kLinkLost: return "base-station link lost";
-    case StopReason::kLaserLost: return "laser silent";
-    case StopReason::kCommandStale: return "no velocity command";
-    case StopReason::kPowerLost: return "power board silent";
-    case StopReason::kFeedbackStale: return "wheel feedback stale";
-    case StopReason::kResetRequired: return "e-stop latched: reset required";
-  }
-  return "unknown";
-}
-
 const char* latch_cause_text(LatchCause c) {
   switch (c) {
     case LatchCause::kNone: return "none";

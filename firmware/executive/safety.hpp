@@ -15,22 +15,13 @@
 #include <cstdint>
 
 #include "common/clock.hpp"
+#include "common/stop_reason.hpp"
 
 namespace cairn::firmware {
 
-// RobotStatus.stop_reason codes (docs/firmware.md).
-enum class StopReason : std::uint8_t {
-  kNone = 0,
-  kEstop = 1,            // the power board's e-stop input
-  kDrivesNotReady = 2,   // a drive is not operation enabled (booting, fault, heartbeat lost)
-  kLinkLost = 3,         // no PoseCorrection / TaskAssignment within the link timeout
-  kLaserLost = 4,        // no scan within the laser timeout
-  kCommandStale = 5,     // the velocity source went silent
-  kPowerLost = 6,        // the power board (its e-stop input) does not answer
-  kFeedbackStale = 7,    // no fresh wheel feedback (TPDO) from an enabled drive, or the CAN thread stalled
-  kResetRequired = 8,    // latched (e-stop released, input or CAN thread back): waiting for a reset
-};
-const char* stop_reason_text(StopReason r);
+// RobotStatus.stop_reason codes: common/stop_reason.hpp.
+using cairn::StopReason;
+using cairn::stop_reason_text;
 
 /// Why the latch is set (the first cause since the last reset).
 enum class LatchCause : std::uint8_t { kNone = 0, kEstop = 1, kEstopInputLost = 2, kCanStalled = 3 };
