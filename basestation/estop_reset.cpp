@@ -97,6 +97,9 @@ EstopResetResult reset_estop(const dds::Participant& pp, const EstopResetRequest
     return finish(EstopResetOutcome::kNoRobot, "no RobotStatus on this DDS domain within " +
                                                    std::to_string(nanos_to_seconds(req.timeout)) + " s: is it running, on this domain?");
   }
+  if (static_cast<std::uint8_t>(res.last_reason) > static_cast<std::uint8_t>(StopReason::kResetRequired)) {
+    return finish(EstopResetOutcome::kCannotReset, reason_line() + ": a stop reason this base does not know; nothing sent");
+  }
   if (res.last_reason != StopReason::kResetRequired) {
     if (stop_reason_masks_latch(res.last_reason)) {
       return finish(EstopResetOutcome::kCannotReset,

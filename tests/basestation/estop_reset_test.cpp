@@ -126,6 +126,15 @@ TEST(EstopReset, APressedEstopIsRefusedWithoutSending) {
   EXPECT_NE(r.message.find("e-stop pressed"), std::string::npos) << r.message;
 }
 
+TEST(EstopReset, AnUnknownStopReasonIsNotTakenForUnlatched) {
+  dds::Participant base(dds::loopback_profile(kDomain));
+  FakeRobot odd(8, static_cast<StopReason>(200), true);
+  const EstopResetResult r = reset_estop(base, request(8));
+  EXPECT_EQ(r.outcome, EstopResetOutcome::kCannotReset) << r.message;
+  EXPECT_EQ(r.sent, 0);
+  EXPECT_NE(r.message.find("stop reason 200"), std::string::npos) << r.message;
+}
+
 TEST(EstopReset, ARobotThatIsNotLatchedIsLeftAlone) {
   dds::Participant base(dds::loopback_profile(kDomain));
   FakeRobot running(5, StopReason::kNone, true);
