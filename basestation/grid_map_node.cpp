@@ -11,7 +11,7 @@
 namespace cairn::base {
 
 namespace {
-constexpr int kTile = cairn_TILE_CELLS;
+constexpr int kTile = kMapTileSide;
 }
 
 GridMapNode::GridMapNode(const dds::Participant& pp, const BaseConfig& cfg)

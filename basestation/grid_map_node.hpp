@@ -19,6 +19,7 @@
 #include "basestation/fusion.hpp"
 #include "basestation/mapper/mapper.hpp"
 #include "common/dds/topics.hpp"
+#include "common/occupancy_grid.hpp"
 
 namespace cairn::base {
 
@@ -30,10 +31,6 @@ struct GridMapCounters {
   std::uint64_t publish_failures = 0;
   std::uint64_t exports = 0, export_failures = 0;
 };
-
-/// One tile's cells as MapTile carries them: occupancy in percent (0..100) for a cell that
-/// was ever observed, kMapTileUnknown for one never seen; cells outside the grid are unknown.
-constexpr std::uint8_t kMapTileUnknown = 255;
 
 class GridMapNode {
  public:
@@ -49,7 +46,8 @@ class GridMapNode {
   /// Returns "" on success, else what failed (counted; the base goes on).
   std::string export_to(const std::string& dir, const Fusion& fusion);
 
-  /// Fills `cells` (TILE_CELLS²) with tile (tx, ty) of the current grid, as published.
+  /// Fills `cells` (kMapTileSide²) with tile (tx, ty) of the current grid, as published:
+  /// occupancy % for a cell ever observed, kMapTileUnknown otherwise (and outside the grid).
   void tile_cells(int tx, int ty, std::uint8_t* cells) const;
   int tiles_x() const;
   int tiles_y() const;

@@ -42,6 +42,11 @@ struct GridGeometry {
 
 enum class Cell : std::uint8_t { kUnknown = 0, kClear = 1, kObstacle = 2 };
 
+/// MapTile on the wire (IDL TILE_CELLS; common/dds/convert.cpp checks they agree): square
+/// tiles of kMapTileSide cells, occupancy 0..100 %, kMapTileUnknown for a cell never seen.
+inline constexpr int kMapTileSide = 64;
+inline constexpr std::uint8_t kMapTileUnknown = 255;
+
 /// A classified map: one Cell per grid cell, row-major from the lower-left (index()).
 struct ClassGrid {
   GridGeometry geometry;

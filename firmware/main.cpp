@@ -52,13 +52,15 @@ void log_progress(const firmware::RobotConfig& cfg, firmware::Executive& exec, c
   char line[400];
   std::snprintf(line, sizeof line,
                 "robot %u: %s; local pose %.2f %.2f %.1f deg; scans %llu (matched %llu); loop p99 %.0f us, jitter max %.0f us, "
-                "misses %llu; sent odometry %llu, features %llu, scans %llu; corrections %llu",
+                "misses %llu; sent odometry %llu, features %llu, scans %llu; corrections %llu; global map %zu tiles "
+                "(%llu out of room)",
                 cfg.id, firmware::stop_reason_text(r.stop), r.local_pose.x, r.local_pose.y, r.local_pose.theta * 57.29578,
                 static_cast<unsigned long long>(r.scans), static_cast<unsigned long long>(r.matched),
                 static_cast<double>(r.period_p99_us), static_cast<double>(r.jitter_max_us),
                 static_cast<unsigned long long>(r.misses), static_cast<unsigned long long>(n.odometry),
                 static_cast<unsigned long long>(n.features), static_cast<unsigned long long>(n.lasers),
-                static_cast<unsigned long long>(n.corrections));
+                static_cast<unsigned long long>(n.corrections), bridge.global_map().tiles(),
+                static_cast<unsigned long long>(bridge.global_map().counters().out_of_room));
   CAIRN_LOG_INFO("robot", "{}", std::string_view(line));
 }
 
@@ -107,6 +109,7 @@ int run(const std::string& config_path, int id_override, const std::string& name
   while (!shutdown_requested() && (end == 0 || clock.now() < end)) {
     const Nanos now = clock.now();
     bridge.take_resets(exec.get());  // the base's SafetyReset
+    bridge.take_map_tiles();         // the base's global map, kept for the bids
     if (const std::uint32_t r = g_local_resets.load(); r != local_resets) {
       local_resets = r;
       CAIRN_LOG_INFO("robot", "e-stop reset requested locally (SIGUSR1)");

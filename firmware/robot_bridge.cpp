@@ -30,6 +30,7 @@ RobotBridge::RobotBridge(const dds::Participant& pp, const RobotConfig& cfg)
       corr_topic_(pp),
       task_topic_(pp),
       reset_topic_(pp),
+      tile_topic_(pp),
       status_writer_(pp, status_topic_, [&] {
         dds::QosSpec q = dds::state_qos();
         q.liveliness_lease = cfg.liveliness_lease;
@@ -40,7 +41,9 @@ RobotBridge::RobotBridge(const dds::Participant& pp, const RobotConfig& cfg)
       feat_writer_(pp, feat_topic_, dds::latched_qos(kFusionHistory)),
       corr_reader_(pp, corr_topic_, dds::latched_qos()),
       task_reader_(pp, task_topic_, dds::latched_qos()),
-      reset_reader_(pp, reset_topic_, dds::state_qos(4)) {  // volatile: never an old reset
+      reset_reader_(pp, reset_topic_, dds::state_qos(4)),  // volatile: never an old reset
+      tile_reader_(pp, tile_topic_, dds::latched_qos()),  // as the base writes them: a late robot gets all
+      global_map_(cfg.global_map) {
   status_.robot_id = cfg.id;
   dds::set_text(status_.name, cfg.name);
   status_.mode = cairn_MODE_IDLE;
@@ -133,6 +136,15 @@ std::size_t RobotBridge::take_resets(Executive* exec) {
     ++counters_.resets;
     CAIRN_LOG_INFO("bridge", "e-stop reset #{} requested over DDS by '{}'", m.seq, std::string_view(m.issued_by.data()));
     if (exec) exec->request_reset();
+  });
+  return n;
+}
+
+std::size_t RobotBridge::take_map_tiles() {
+  std::size_t n = 0;
+  tile_reader_.take([&](const cairn_MapTile& t, const dds_sample_info_t&) {
+    if (t.robot_id != 0) return;  // only the fused global map
+    if (global_map_.apply(map_tile_view(t)) == GlobalMap::Applied::kStored) ++n;
   });
   return n;
 }

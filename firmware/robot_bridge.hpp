@@ -3,7 +3,8 @@
 // OdometryIncrement, LaserScan and FeatureObservations topics, publishes RobotStatus
 // (loop statistics, stop reason, devices), and takes this robot's PoseCorrection and
 // TaskAssignment, which keep the base-station link alive, and this robot's SafetyReset
-// (an operator's e-stop reset, handed to Executive::request_reset()). With no executive (a robot
+// (an operator's e-stop reset, handed to Executive::request_reset()), and the base's global
+// map (MapTile, into a GlobalMap of configured size). With no executive (a robot
 // configured without [devices]) it publishes status only.
 #pragma once
 
@@ -13,6 +14,7 @@
 #include "cairn.h"
 #include "common/dds/topics.hpp"
 #include "firmware/executive/executive.hpp"
+#include "firmware/global_map.hpp"
 #include "firmware/robot_config.hpp"
 
 namespace cairn::firmware {
@@ -22,6 +24,12 @@ struct BridgeCounters {
   std::uint64_t invalid_inputs = 0;  // samples from the base that had to be clamped
   std::uint64_t resets = 0;          // SafetyReset samples for this robot
 };
+
+/// A MapTile sample as the robot's GlobalMap takes it (the edge's one conversion; the
+/// sample must outlive the view).
+inline TileView map_tile_view(const cairn_MapTile& t) {
+  return {t.tile_x, t.tile_y, t.resolution, t.origin_x, t.origin_y, std::span<const std::uint8_t>(t.cells)};
+}
 
 class RobotBridge {
  public:
@@ -37,6 +45,10 @@ class RobotBridge {
   /// Takes this robot's SafetyReset samples; each becomes one exec->request_reset()
   /// (exec may be null: taken and dropped). Returns how many arrived.
   std::size_t take_resets(Executive* exec);
+  /// Takes the base's MapTile samples (the global map, robot_id 0) into global_map().
+  /// Returns how many were stored.
+  std::size_t take_map_tiles();
+  const GlobalMap& global_map() const { return global_map_; }
   /// The latest local->global transform from the base station, if any.
   const std::optional<Pose2>& local_to_global() const { return local_to_global_; }
   /// Tells the base the robot left on purpose (it shows "left", not "lost").
@@ -56,6 +68,7 @@ class RobotBridge {
   dds::Topic<cairn_PoseCorrection> corr_topic_;
   dds::Topic<cairn_TaskAssignment> task_topic_;
   dds::Topic<cairn_SafetyReset> reset_topic_;
+  dds::Topic<cairn_MapTile> tile_topic_;
   dds::Writer<cairn_RobotStatus> status_writer_;
   dds::Writer<cairn_OdometryIncrement> odom_writer_;
   dds::Writer<cairn_LaserScan> laser_writer_;
@@ -63,6 +76,8 @@ class RobotBridge {
   dds::Reader<cairn_PoseCorrection> corr_reader_;
   dds::Reader<cairn_TaskAssignment> task_reader_;
   dds::Reader<cairn_SafetyReset> reset_reader_;
+  dds::Reader<cairn_MapTile> tile_reader_;
+  GlobalMap global_map_;
   cairn_RobotStatus status_{};
   // Conversion buffers, reserved once (a LaserScan is ~3 KB).
   std::unique_ptr<msg::LaserScan> laser_ = std::make_unique<msg::LaserScan>();

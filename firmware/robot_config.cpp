@@ -109,6 +109,14 @@ void read_motion(const ConfigSection& m, MotionConfig* motion) {
   for (std::size_t i = 0; i + 1 < v.size(); i += 2) motion->waypoints.emplace_back(v[i], v[i + 1]);
 }
 
+void read_map(const ConfigSection& m, GlobalMapConfig* g) {
+  g->max_cells = static_cast<std::size_t>(
+      m.integer_or("max_cells", static_cast<std::int64_t>(g->max_cells), {4096, std::int64_t{1} << 24}));
+  g->p_o = m.number_or("p_o", g->p_o, {0.0, 1.0});
+  g->p_c = m.number_or("p_c", g->p_c, {0.0, 1.0});
+  if (!(g->p_c < g->p_o)) m.fail("p_c", "must be below p_o (" + std::to_string(g->p_o) + ")");
+}
+
 RobotConfig read(const ConfigDocument& doc) {
   const ConfigSection root = doc.root();
   RobotConfig c;
@@ -131,6 +139,7 @@ RobotConfig read(const ConfigDocument& doc) {
   if (const auto s = root.optional_section("safety")) read_safety(*s, &c.executive.safety);
   if (const auto m = root.optional_section("mapping")) read_mapping(*m, &c.executive);
   if (const auto m = root.optional_section("motion")) read_motion(*m, &c.motion);
+  if (const auto m = root.optional_section("map")) read_map(*m, &c.global_map);
   if (c.has_devices) check_localmap_budget(root, c.executive);
   c.motion.follower.max_w = std::min(c.motion.follower.max_w, c.executive.safety.max_w);
   doc.finish();

@@ -11,6 +11,7 @@
 #include "common/dds/profile.hpp"
 #include "firmware/executive/executive.hpp"
 #include "firmware/executive/path_follower.hpp"
+#include "firmware/global_map.hpp"
 
 namespace cairn::firmware {
 
@@ -31,6 +32,7 @@ struct RobotConfig {
   ExecutiveConfig executive;   // robot_id mirrors `id`
   MotionConfig motion;
   Nanos bridge_period = 2 * kNanosPerMilli;  // how often the DDS side drains the RT queues
+  GlobalMapConfig global_map;                // [map]: the base's MapTiles, kept for the bids
 };
 
 /// Loads and validates a robot configuration; throws ConfigError naming file, key and expected form.

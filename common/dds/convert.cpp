@@ -3,8 +3,11 @@
 #include <algorithm>
 #include <cstring>
 
+#include "common/occupancy_grid.hpp"
+
 namespace cairn::dds {
 
+static_assert(cairn_TILE_CELLS == kMapTileSide, "MapTile size: IDL vs common/occupancy_grid.hpp");
 static_assert(cairn_MAX_BEAMS == msg::kMaxBeams && cairn_MAX_FEATURES == msg::kMaxFeatures &&
                   cairn_MAX_LANDMARKS == msg::kMaxLandmarks && cairn_MAX_PATH == msg::kMaxPath && cairn_MAX_BIDS == msg::kMaxBids,
               "common/messages.hpp and common/idl/cairn.idl disagree on a capacity");

@@ -1,7 +1,8 @@
 // The base's central mapper on DDS: LaserScans read from the topic are placed by the
 // fusion's estimate (a robot it has not localised is counted, not mapped); only tiles that
 // changed are published; a reader that joins late receives every tile of the map, cell for
-// cell; the export is what map_server reads back, and a failed export is reported, not thrown.
+// cell, and so does a robot's own copy (firmware/global_map.hpp); the export is what
+// map_server reads back, and a failed export is reported, not thrown.
 #include "basestation/grid_map_node.hpp"
 
 #include <gtest/gtest.h>
@@ -13,6 +14,7 @@
 
 #include "basestation/mapper/export.hpp"
 #include "common/dds/convert.hpp"
+#include "firmware/robot_bridge.hpp"
 
 namespace cairn::base {
 namespace {
@@ -153,6 +155,48 @@ TEST(GridMapNode, ScansFromDdsBuildTheMapOnlyChangedTilesGoOutAndALateReaderGets
   // A cell 2 m ahead of the robot, inside the room, is clear there.
   ASSERT_TRUE(node.mapper().geometry().cell_of(kStart.x + 2.0 * std::cos(kStart.theta), kStart.y + 2.0 * std::sin(kStart.theta), &i, &j));
   EXPECT_LE(received(i, j), 20);
+
+  // The robot's own copy (firmware/global_map.hpp), started now on its own participant: it
+  // holds all 9 tiles and classifies every cell as the base does, but for cells within the
+  // wire's 1 % step of a threshold.
+  firmware::RobotConfig rc;
+  rc.id = 1;
+  rc.name = "late-robot";
+  rc.dds = cfg.dds;
+  dds::Participant robot_pp(rc.dds);
+  firmware::RobotBridge bridge(robot_pp, rc);
+  const Nanos end2 = MonotonicClock::instance().now() + 5 * kNanosPerSecond;
+  while (bridge.global_map().tiles() < 9 && MonotonicClock::instance().now() < end2) {
+    bridge.take_map_tiles();
+    usleep(5000);
+  }
+  ASSERT_EQ(bridge.global_map().tiles(), 9u);
+  EXPECT_EQ(bridge.global_map().counters().out_of_room + bridge.global_map().counters().invalid, 0u);
+  ClassGrid robot_map;
+  ASSERT_TRUE(bridge.global_map().classify(&robot_map));
+  ASSERT_EQ(robot_map.geometry.width, 3 * 64);
+  ASSERT_EQ(robot_map.geometry.height, 3 * 64);
+  EXPECT_DOUBLE_EQ(robot_map.geometry.origin_x, -12.0);
+  EXPECT_DOUBLE_EQ(robot_map.geometry.origin_y, -12.0);
+  int compared = 0, differ = 0, robot_obstacles = 0;
+  for (int cj = 0; cj < robot_map.geometry.height; ++cj) {
+    for (int ci = 0; ci < robot_map.geometry.width; ++ci) {
+      const Cell mine = robot_map.at(ci, cj);
+      robot_obstacles += mine == Cell::kObstacle;
+      if (!node.mapper().observed(ci, cj)) {
+        differ += mine != Cell::kUnknown;
+        ++compared;
+        continue;
+      }
+      const double pct = 100.0 * node.mapper().probability(ci, cj);
+      if (std::abs(pct - 65.0) < 1.0 || std::abs(pct - 19.6) < 1.0) continue;
+      differ += static_cast<int>(mine) != static_cast<int>(node.mapper().classify(ci, cj));
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 192 * 192 - 200);
+  EXPECT_EQ(differ, 0);
+  EXPECT_GT(robot_obstacles, 4 * 60) << "the room's four 10 m walls";
 }
 
 TEST(GridMapNode, ExportIsWhatMapServerReadsAndAFailedExportIsReportedNotThrown) {

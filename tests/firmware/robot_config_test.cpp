@@ -39,6 +39,11 @@ TEST(RobotConfig, StatusOnlyAndFullRobot) {
   EXPECT_EQ(full.executive.feature_period, 0) << "default: features with every scan";
   const auto slow = firmware::parse_robot_config(kDevices + "[mapping]\nfeature_period_s = 0.2\n", "robot.toml");
   EXPECT_EQ(slow.executive.feature_period, 200 * kNanosPerMilli);
+  EXPECT_EQ(full.global_map.max_cells, std::size_t{1} << 20) << "default: 1 Mi cells";
+  const auto big = firmware::parse_robot_config(kDevices + "[map]\nmax_cells = 4000000\np_o = 0.7\np_c = 0.3\n", "robot.toml");
+  EXPECT_EQ(big.global_map.max_cells, 4000000u);
+  EXPECT_DOUBLE_EQ(big.global_map.p_o, 0.7);
+  EXPECT_DOUBLE_EQ(big.global_map.p_c, 0.3);
 }
 
 TEST(RobotConfig, ErrorsNameTheKey) {
@@ -49,6 +54,9 @@ TEST(RobotConfig, ErrorsNameTheKey) {
   EXPECT_NE(error_of(kDevices + "[motion]\nwaypoints = [1, 2, 3]\n").find("odd count"), std::string::npos);
   EXPECT_NE(error_of(kDevices + "[rt]\nperiod_s = 0.5\n").find("rt.period_s"), std::string::npos);
   EXPECT_NE(error_of(kDevices + "[mapping]\nfeature_period_s = 11\n").find("mapping.feature_period_s"), std::string::npos);
+  EXPECT_NE(error_of(kDevices + "[map]\nmax_cells = 4095\n").find("map.max_cells"), std::string::npos);
+  EXPECT_NE(error_of(kDevices + "[map]\nmax_cells = 20000000\n").find("map.max_cells"), std::string::npos);
+  EXPECT_NE(error_of(kDevices + "[map]\np_c = 0.7\n").find("must be below p_o"), std::string::npos);
   EXPECT_NE(error_of(kDevices + "[saftey]\nmax_v = 1\n").find("did you mean 'safety'"), std::string::npos);
 }
 

@@ -6,7 +6,8 @@
 // (common/dds/convert) and then, as the base's node and the robot's bridge would, into
 // the base's fusion (odometry, features), the base's central mapper (laser scans, placed by
 // the fusion's frame estimate as basestation/grid_map_node does, or by a fixed frame when
-// the robot is not localised) or the robot's side (corrections, tasks). At the
+// the robot is not localised) or the robot's side (corrections, tasks, the global map's
+// tiles into a small GlobalMap, classified after each). At the
 // end the fusion's state is saved and restored, and op 0xFF feeds the rest of the input to
 // the state-file reader (which may refuse it with an exception, never crash).
 //
@@ -22,6 +23,7 @@
 #include "basestation/fusion.hpp"
 #include "basestation/mapper/mapper.hpp"
 #include "common/dds/convert.hpp"
+#include "firmware/robot_bridge.hpp"
 
 namespace {
 
@@ -62,6 +64,10 @@ mapper::MapperConfig small_grid() {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   base::Fusion fusion(fleet());
   mapper::Mapper map(small_grid());
+  firmware::GlobalMapConfig robot_map_cfg;
+  robot_map_cfg.max_cells = 6 * 64 * 64;  // small: the out-of-room paths are reached
+  firmware::GlobalMap robot_map(robot_map_cfg);
+  ClassGrid robot_classes;
   const std::uint8_t* p = data;
   const std::uint8_t* end = data + size;
   while (p < end) {
@@ -124,6 +130,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         p = fill(&d, p, end);
         msg::SafetyReset m;
         (void)dds::from_dds(d, &m);
+        break;
+      }
+      case 6: {  // the base's global map, as the robot's bridge keeps it
+        static cairn_MapTile d;  // 4 KiB: not on the fuzzer's stack
+        p = fill(&d, p, end);
+        if (d.robot_id == 0) (void)robot_map.apply(firmware::map_tile_view(d));
+        (void)robot_map.classify(&robot_classes);
         break;
       }
       default: {  // what the node publishes: corrections and the landmark map
