@@ -67,6 +67,25 @@ BaseConfig from_document(const ConfigDocument& doc) {
     c.map_reframe_period = seconds_to_nanos(m->number_or("reframe_period_s", 10.0, {0.1, 3600.0}));
     c.map_export_dir = m->string_or("export_dir", c.map_export_dir);
   }
+  if (const auto e = root.optional_section("explore")) {
+    c.explore_enabled = e->boolean_or("enabled", false);
+    explore::AllocatorConfig& a = c.explore;
+    a.bid_wait = seconds_to_nanos(e->number_or("bid_wait_s", nanos_to_seconds(a.bid_wait), {0.0, 60.0}));
+    a.cells_per_metre = e->number_or("cells_per_metre", a.cells_per_metre, {0.0, 1e6});
+    a.min_gain = e->number_or("min_gain", a.min_gain, {0.0, 1e9});
+    a.hysteresis_ratio = e->number_or("hysteresis_ratio", a.hysteresis_ratio, {0.01, 1.0});
+    a.no_progress_timeout =
+        seconds_to_nanos(e->number_or("no_progress_timeout_s", nanos_to_seconds(a.no_progress_timeout), {0.5, 3600.0}));
+    a.bar_duration = seconds_to_nanos(e->number_or("bar_s", nanos_to_seconds(a.bar_duration), {0.0, 86400.0}));
+    a.arrival_radius_m = e->number_or("arrival_radius_m", a.arrival_radius_m, {0.01, 10.0});
+    a.coordinated = e->boolean_or("coordinated", a.coordinated);
+    try {
+      explore::validate(a);
+    } catch (const std::invalid_argument& ex) {
+      e->fail("enabled", ex.what());
+    }
+    if (c.explore_enabled && !c.fusion_enabled) e->fail("enabled", "exploration needs [fusion] enabled = true");
+  }
   if (const auto f = root.optional_section("fusion")) c.fusion.restart_sigma = read_sigma(*f, "restart_sigma", c.fusion.restart_sigma);
   if (const auto u = root.optional_section("unknown_robot")) {
     c.fusion.unknown.sigma = read_sigma(*u, "initial_sigma", c.fusion.unknown.sigma);

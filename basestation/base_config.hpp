@@ -4,6 +4,7 @@
 #include <string>
 #include <string_view>
 
+#include "basestation/explore/allocator_config.hpp"
 #include "basestation/fusion.hpp"
 #include "basestation/mapper/mapper.hpp"
 #include "common/clock.hpp"
@@ -32,6 +33,11 @@ struct BaseConfig {
   Nanos map_tile_period = kNanosPerSecond;         // changed MapTiles at most this often
   Nanos map_reframe_period = 10 * kNanosPerSecond; // re-render scans whose robot's frame moved
   std::string map_export_dir = "cairn-base-map";   // SIGUSR1 and exit write the map here
+
+  // [explore]: the exploration executive (docs/explore-executive.md). Off by default:
+  // robots without bids keep their configured routes.
+  bool explore_enabled = false;  // needs [fusion]: bids count only from localised robots
+  explore::AllocatorConfig explore;
 };
 
 BaseConfig load_base_config(const std::string& path);

@@ -9,6 +9,7 @@
 
 #include "basestation/base_config.hpp"
 #include "basestation/estop_reset.hpp"
+#include "basestation/explore_node.hpp"
 #include "basestation/fleet.hpp"
 #include "basestation/fusion_node.hpp"
 #include "basestation/grid_map_node.hpp"
@@ -91,6 +92,13 @@ int run(const std::string& config_path, double duration_s) {
                    cairn_TILE_CELLS, static_cast<long long>(getpid()), cfg.map_export_dir.c_str());
   }
 
+  std::unique_ptr<base::ExploreNode> explore;
+  if (fusion && cfg.explore_enabled) {
+    explore = std::make_unique<base::ExploreNode>(pp, cfg.explore);
+    CAIRN_LOG_INFO("base", "explore: assigning frontiers from the robots' bids ({})",
+                   cfg.explore.coordinated ? "coordinated" : "uncoordinated");
+  }
+
   const Nanos end = duration_s > 0 ? start + seconds_to_nanos(duration_s) : 0;
   Nanos next_table = start + cfg.table_period;
   while (!shutdown_requested() && (end == 0 || clock.now() < end)) {
@@ -114,6 +122,7 @@ int run(const std::string& config_path, double duration_s) {
           }
         });
     fleet.tick(now);
+    if (explore) explore->poll(now, fusion->fusion(), fleet);
     if (now >= next_table) {
       next_table += cfg.table_period;
       if (tty) std::printf("\033[2J\033[H");
@@ -121,6 +130,7 @@ int run(const std::string& config_path, double duration_s) {
                   fleet.table(now).c_str());
       if (fusion) std::printf("[%8.3f] %s\n", nanos_to_seconds(now - start), fusion->summary().c_str());
       if (map) std::printf("[%8.3f] %s\n", nanos_to_seconds(now - start), map->summary().c_str());
+      if (explore) std::printf("[%8.3f] %s\n", nanos_to_seconds(now - start), explore->summary().c_str());
       std::fflush(stdout);
     }
   }

@@ -28,7 +28,7 @@ struct BridgeCounters {
 /// A MapTile sample as the robot's GlobalMap takes it (the edge's one conversion; the
 /// sample must outlive the view).
 inline TileView map_tile_view(const cairn_MapTile& t) {
-  return {t.tile_x, t.tile_y, t.resolution, t.origin_x, t.origin_y, std::span<const std::uint8_t>(t.cells)};
+  return {t.tile_x, t.tile_y, static_cast<double>(t.resolution), t.origin_x, t.origin_y, std::span<const std::uint8_t>(t.cells)};
 }
 
 class RobotBridge {

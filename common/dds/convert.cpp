@@ -215,6 +215,33 @@ bool from_dds(const cairn_TaskAssignment& m, msg::TaskAssignment* out) {
   return ok;
 }
 
+void to_dds(const msg::Bid& m, cairn_Bid* out) {
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->map_version = m.map_version;
+  const std::size_t n = std::min<std::size_t>(m.n_items, msg::kMaxBids);
+  out->n_items = static_cast<std::uint16_t>(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const msg::BidItem& a = m.items[i];
+    out->items[i] = {a.x, a.y, a.gain, a.cost, a.igr_min_x, a.igr_min_y, a.igr_max_x, a.igr_max_y};
+  }
+}
+
+// Values are the sender's: the count is clamped here; NaN, negative gains and inverted
+// rectangles are the executive's to refuse (TaskAllocator::on_bid, counted).
+bool from_dds(const cairn_Bid& m, msg::Bid* out) {
+  bool ok = true;
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->map_version = m.map_version;
+  out->n_items = clamp_count(m.n_items, msg::kMaxBids, &ok);
+  for (std::size_t i = 0; i < out->n_items; ++i) {
+    const cairn_BidItem& a = m.items[i];
+    out->items[i] = {a.x, a.y, a.gain, a.cost, a.igr_min_x, a.igr_min_y, a.igr_max_x, a.igr_max_y};
+  }
+  return ok;
+}
+
 void to_dds_page(const msg::Landmark* all, std::size_t count, std::size_t first, std::uint32_t seq, Nanos stamp,
                  cairn_FeatureMap* out) {
   out->robot_id = 0;

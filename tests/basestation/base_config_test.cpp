@@ -61,6 +61,28 @@ TEST(BaseConfig, OutOfRangeAndUnknownKeysAreErrors) {
   EXPECT_THROW(parse_base_config(std::string("[unknown_robot]\nalow = true\n") + kFleet, "d.toml"), ConfigError);
 }
 
+TEST(BaseConfig, ExplorationIsOffByDefaultAndItsKeysAreRead) {
+  EXPECT_FALSE(parse_base_config(kFleet, "base.toml").explore_enabled);
+  const BaseConfig c = parse_base_config(std::string("[explore]\nenabled = true\nbid_wait_s = 0.2\nmin_gain = 35\n"
+                                                    "cells_per_metre = 4\nhysteresis_ratio = 0.9\ncoordinated = false\n") +
+                                             kFleet,
+                                         "base.toml");
+  EXPECT_TRUE(c.explore_enabled);
+  EXPECT_EQ(c.explore.bid_wait, 200 * kNanosPerMilli);
+  EXPECT_DOUBLE_EQ(c.explore.min_gain, 35);
+  EXPECT_DOUBLE_EQ(c.explore.cells_per_metre, 4);
+  EXPECT_DOUBLE_EQ(c.explore.hysteresis_ratio, 0.9);
+  EXPECT_FALSE(c.explore.coordinated);
+  EXPECT_THROW(parse_base_config(std::string("[explore]\nhysteresis_ratio = 0\n") + kFleet, "e.toml"), ConfigError);
+  EXPECT_THROW(parse_base_config(std::string("[explore]\nbid_wiat_s = 1\n") + kFleet, "f.toml"), ConfigError);
+  try {
+    parse_base_config(std::string("[fusion]\nenabled = false\n[explore]\nenabled = true\n"), "g.toml");
+    FAIL() << "exploration without fusion was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("needs [fusion]"), std::string::npos) << e.what();
+  }
+}
+
 TEST(BaseConfig, TheMapFrameMustComeFromTheConfiguration) {
   // Fusion on, but no listed robot with a start pose: nothing defines the frame.
   EXPECT_THROW(parse_base_config("[[robot]]\nid = 2\n", "e.toml"), ConfigError);

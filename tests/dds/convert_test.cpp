@@ -137,6 +137,31 @@ TEST(Convert, CorrectionAndTaskRoundTrip) {
   EXPECT_EQ(t2.kind, msg::TaskKind::kStop);
 }
 
+TEST(Convert, BidRoundTripsAndAnOversizedCountIsClamped) {
+  msg::Bid b;
+  b.robot_id = 3;
+  b.seq = 17;
+  b.map_version = 9;
+  b.n_items = 2;
+  b.items[0] = {1.5, -2.0, 120, 3.25, 0, -4, 3, 0};
+  b.items[1] = {-7.0, 8.0, 40, 11.0, -9, 6, -5, 10};
+  auto d = std::make_unique<cairn_Bid>();
+  dds::to_dds(b, d.get());
+  msg::Bid back;
+  ASSERT_TRUE(dds::from_dds(*d, &back));
+  EXPECT_EQ(back.robot_id, 3);
+  EXPECT_EQ(back.seq, 17u);
+  EXPECT_EQ(back.map_version, 9u);
+  ASSERT_EQ(back.n_items, 2);
+  EXPECT_EQ(back.items[1].x, -7.0);
+  EXPECT_EQ(back.items[1].cost, 11.0);
+  EXPECT_EQ(back.items[1].igr_max_y, 10.0);
+  EXPECT_EQ(back.items[0].igr_min_y, -4.0);
+  d->n_items = 60000;  // a hostile count
+  EXPECT_FALSE(dds::from_dds(*d, &back));
+  EXPECT_EQ(back.n_items, msg::kMaxBids);
+}
+
 TEST(Convert, SafetyResetRoundTripsAndAnUnterminatedNameIsCut) {
   msg::SafetyReset r;
   r.robot_id = 3;

@@ -7,7 +7,8 @@
 // the base's fusion (odometry, features), the base's central mapper (laser scans, placed by
 // the fusion's frame estimate as basestation/grid_map_node does, or by a fixed frame when
 // the robot is not localised) or the robot's side (corrections, tasks, the global map's
-// tiles into a small GlobalMap, classified after each). At the
+// tiles into a small GlobalMap, classified after each) or the exploration executive (bids,
+// op 7 with bit 5 set). At the
 // end the fusion's state is saved and restored, and op 0xFF feeds the rest of the input to
 // the state-file reader (which may refuse it with an exception, never crash).
 //
@@ -20,6 +21,7 @@
 #include <sstream>
 #include <vector>
 
+#include "basestation/explore/task_allocator.hpp"
 #include "basestation/fusion.hpp"
 #include "basestation/mapper/mapper.hpp"
 #include "common/dds/convert.hpp"
@@ -68,6 +70,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   robot_map_cfg.max_cells = 6 * 64 * 64;  // small: the out-of-room paths are reached
   firmware::GlobalMap robot_map(robot_map_cfg);
   ClassGrid robot_classes;
+  explore::AllocatorConfig allocator_cfg;
+  allocator_cfg.bid_wait = 0;
+  explore::TaskAllocator allocator(allocator_cfg);
+  std::vector<msg::TaskAssignment> assignments;
+  Nanos now = 0;
   const std::uint8_t* p = data;
   const std::uint8_t* end = data + size;
   while (p < end) {
@@ -139,6 +146,20 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         (void)robot_map.classify(&robot_classes);
         break;
       }
+      case 7:
+        if (op & 0x20) {  // a robot's bid, into the exploration executive
+          static cairn_Bid d;
+          p = fill(&d, p, end);
+          msg::Bid m;
+          (void)dds::from_dds(d, &m);
+          (void)allocator.on_bid(m, now);
+          allocator.on_robot_pose(robot, Vec2(1.0, 0.5), now);
+          now += 100 * kNanosPerMilli;
+          assignments.clear();
+          (void)allocator.tick(now, &assignments);
+          break;
+        }
+        [[fallthrough]];
       default: {  // what the node publishes: corrections and the landmark map
         msg::PoseCorrection c;
         (void)fusion.correction(robot, 0, &c);

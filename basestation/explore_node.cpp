@@ -1,0 +1,78 @@
+#include "basestation/explore_node.hpp"
+
+#include <cstdio>
+
+#include "common/dds/convert.hpp"
+#include "common/log.hpp"
+
+namespace cairn::base {
+
+ExploreNode::ExploreNode(const dds::Participant& pp, const explore::AllocatorConfig& config)
+    : allocator_(config),
+      bid_topic_(pp),
+      task_topic_(pp),
+      bid_reader_(pp, bid_topic_, dds::state_qos(1)),     // the latest bid of each robot
+      task_writer_(pp, task_topic_, dds::latched_qos()) {  // a robot that restarts gets its task
+}
+
+void ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet) {
+  // Only robots the fusion tracks (bounded by configuration), and only once the fleet has
+  // heard from them.
+  for (const std::uint16_t id : fusion.robots()) {
+    const auto entry = fleet.robots().find(id);
+    if (entry == fleet.robots().end()) continue;
+    const bool alive = entry->second.presence == Presence::kAlive || entry->second.presence == Presence::kStale;
+    auto it = alive_.find(id);
+    if (it == alive_.end() || it->second != alive) {
+      allocator_.on_link(id, alive, now);
+      alive_[id] = alive;
+    }
+  }
+  msg::PoseCorrection c;
+  for (const std::uint16_t id : fusion.robots()) {
+    if (fusion.correction(id, 0, &c)) allocator_.on_robot_pose(id, c.global_pose.translation(), now);
+  }
+  bid_reader_.take([&](const cairn_Bid& d, const dds_sample_info_t&) {
+    msg::Bid bid;
+    if (!dds::from_dds(d, &bid)) ++counters_.bids_clamped;
+    if (!fusion.correction(bid.robot_id, 0, &c)) {
+      ++counters_.bids_unlocalised;
+      return;
+    }
+    ++counters_.bids_taken;
+    (void)allocator_.on_bid(bid, now);  // a malformed one is counted by the allocator
+  });
+  out_.clear();
+  const bool explored = allocator_.tick(now, &out_);
+  for (const msg::TaskAssignment& a : out_) {
+    cairn_TaskAssignment d{};
+    dds::to_dds(a, &d);
+    if (task_writer_.write(d)) {
+      ++counters_.assignments_written;
+    } else {
+      ++counters_.write_failures;
+    }
+  }
+  if (explored && !reported_explored_) {
+    CAIRN_LOG_INFO("explore", "exploration complete: no frontier with a gain above {} cells is left", allocator_.config().min_gain);
+  }
+  reported_explored_ = explored;
+}
+
+std::string ExploreNode::summary() const {
+  const auto& a = allocator_.counters();
+  char line[320];
+  std::snprintf(line, sizeof line,
+                "explore: %s; bids %llu (unlocalised %llu, rejected %llu), rounds %llu, assigned %llu, kept %llu, "
+                "idles %llu, timeouts %llu, written %llu (failed %llu)",
+                allocator_.explored() ? "explored" : "exploring", static_cast<unsigned long long>(counters_.bids_taken),
+                static_cast<unsigned long long>(counters_.bids_unlocalised),
+                static_cast<unsigned long long>(a.bids_rejected), static_cast<unsigned long long>(a.rounds),
+                static_cast<unsigned long long>(a.explore_assigned), static_cast<unsigned long long>(a.tasks_kept),
+                static_cast<unsigned long long>(a.idles), static_cast<unsigned long long>(a.timeouts),
+                static_cast<unsigned long long>(counters_.assignments_written),
+                static_cast<unsigned long long>(counters_.write_failures));
+  return line;
+}
+
+}  // namespace cairn::base

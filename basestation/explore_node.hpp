@@ -1,0 +1,50 @@
+// The base's exploration executive on DDS (issue 15 item 2, its edge): the robots' `Bid`s
+// in, `TaskAssignment`s out, the allocator itself pure (basestation/explore/). A bid is
+// taken only from a robot the fusion has localised (its global pose is what the
+// allocator's progress monitor watches; an unknown id cannot grow the allocator's
+// tables); others are counted. A robot the fleet reports lost gives its task back, and
+// its return gives it a link again.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "basestation/explore/task_allocator.hpp"
+#include "basestation/fleet.hpp"
+#include "basestation/fusion.hpp"
+#include "common/dds/topics.hpp"
+
+namespace cairn::base {
+
+struct ExploreNodeCounters {
+  std::uint64_t bids_taken = 0;
+  std::uint64_t bids_unlocalised = 0;  // from a robot the fusion has no estimate of
+  std::uint64_t bids_clamped = 0;      // more items than a Bid holds: cut, still used
+  std::uint64_t assignments_written = 0, write_failures = 0;
+};
+
+class ExploreNode {
+ public:
+  ExploreNode(const dds::Participant& pp, const explore::AllocatorConfig& config);
+  /// Takes the bids that arrived, tells the allocator every localised robot's global pose
+  /// and every change of link, runs it and writes what it assigns. Never blocks.
+  void poll(Nanos now, const Fusion& fusion, const Fleet& fleet);
+  /// One line for the console.
+  std::string summary() const;
+  const explore::TaskAllocator& allocator() const { return allocator_; }
+  const ExploreNodeCounters& counters() const { return counters_; }
+
+ private:
+  explore::TaskAllocator allocator_;
+  dds::Topic<cairn_Bid> bid_topic_;
+  dds::Topic<cairn_TaskAssignment> task_topic_;
+  dds::Reader<cairn_Bid> bid_reader_;
+  dds::Writer<cairn_TaskAssignment> task_writer_;
+  std::map<std::uint16_t, bool> alive_;  // the link state last told to the allocator
+  std::vector<msg::TaskAssignment> out_;
+  bool reported_explored_ = false;
+  ExploreNodeCounters counters_;
+};
+
+}  // namespace cairn::base

@@ -1,0 +1,123 @@
+// The exploration executive's DDS edge (basestation/explore_node.hpp), on loopback in its
+// own domain: bids written as robots write them reach the allocator only from robots the
+// fusion has localised; the coordinated assignment comes back on TaskAssignment to each
+// robot; a robot the fleet calls lost gives its task back. The allocator's own rules are
+// task_allocator_test's.
+#include "basestation/explore_node.hpp"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <map>
+
+#include "common/dds/convert.hpp"
+#include "common/dds/profile.hpp"
+
+namespace cairn::base {
+namespace {
+
+constexpr std::uint32_t kDomain = 114;  // this test's own domain
+
+FusionConfig two_robots() {
+  FusionConfig c;
+  RobotPrior p;
+  p.known = true;
+  p.sigma = Vec3(0.05, 0.05, 0.01);
+  p.pose = {0, 0, 0};
+  c.robots[1] = p;
+  p.pose = {0, 4, 0};
+  c.robots[2] = p;
+  return c;
+}
+
+void localise(Fusion* f, std::uint16_t robot) {
+  msg::OdometryIncrement o;
+  o.robot_id = robot;
+  o.seq = 1;
+  o.t0 = 0;
+  o.t1 = 10 * kNanosPerMilli;
+  o.delta_cov = {1e-6, 0, 0, 0, 1e-6, 0, 0, 0, 1e-6};
+  o.boot_epoch = 7;
+  ASSERT_EQ(f->on_odometry(o), Fusion::Result::kApplied);
+}
+
+msg::BidItem item(double x, double y, double gain, double cost, double half) {
+  return {x, y, gain, cost, x - half, y - half, x + half, y + half};
+}
+
+TEST(ExploreNode, BidsFromLocalisedRobotsComeBackAsCoordinatedTasks) {
+  dds::Participant pp(dds::loopback_profile(kDomain));
+  Fusion fusion(two_robots());
+  localise(&fusion, 1);
+  localise(&fusion, 2);
+  Fleet fleet(3 * kNanosPerSecond, nullptr);
+  auto& clock = MonotonicClock::instance();
+  for (std::uint16_t id : {std::uint16_t{1}, std::uint16_t{2}, std::uint16_t{9}}) fleet.on_status(id, "r", "running", 1, clock.now());
+  explore::AllocatorConfig cfg;
+  cfg.bid_wait = 100 * kNanosPerMilli;
+  ExploreNode node(pp, cfg);
+
+  dds::Participant robots(dds::loopback_profile(kDomain));
+  dds::Topic<cairn_Bid> bid_topic(robots);
+  dds::Writer<cairn_Bid> bids(robots, bid_topic, dds::state_qos(1));
+  ASSERT_TRUE(bids.wait_for_readers(1, 5 * kNanosPerSecond));
+  // Both robots' best item is the same frontier A (robot 1 is nearer); robot 2's second is
+  // B, elsewhere. Coordinated: 1 takes A, 2's A is discounted by the whole overlap, so 2
+  // takes B. Robot 9 is not in the fusion: its bid must not count.
+  msg::Bid b1, b2, b9;
+  b1.robot_id = 1;
+  b1.seq = 1;
+  b1.n_items = 1;
+  b1.items[0] = item(6, 2, 300, 6, 2);
+  b2.robot_id = 2;
+  b2.seq = 1;
+  b2.n_items = 2;
+  b2.items[0] = item(6, 2, 300, 6.5, 2);
+  b2.items[1] = item(-6, 6, 150, 6, 2);
+  b9.robot_id = 9;
+  b9.seq = 1;
+  b9.n_items = 1;
+  b9.items[0] = item(1, 1, 1000, 1, 1);
+  for (const msg::Bid* b : {&b1, &b2, &b9}) {
+    cairn_Bid d{};
+    dds::to_dds(*b, &d);
+    ASSERT_TRUE(bids.write(d));
+  }
+
+  dds::Topic<cairn_TaskAssignment> task_topic(robots);
+  dds::Reader<cairn_TaskAssignment> tasks(robots, task_topic, dds::latched_qos());
+  std::map<std::uint16_t, msg::TaskAssignment> got;
+  const Nanos end = clock.now() + 5 * kNanosPerSecond;
+  while (got.size() < 2 && clock.now() < end) {
+    node.poll(clock.now(), fusion, fleet);
+    tasks.take([&](const cairn_TaskAssignment& d, const dds_sample_info_t&) {
+      msg::TaskAssignment t;
+      ASSERT_TRUE(dds::from_dds(d, &t));
+      got[t.robot_id] = t;
+    });
+    usleep(5000);
+  }
+  ASSERT_EQ(got.size(), 2u) << node.summary();
+  EXPECT_EQ(got.count(9), 0u);
+  EXPECT_EQ(got[1].kind, msg::TaskKind::kExplore);
+  EXPECT_DOUBLE_EQ(got[1].target_x, 6);
+  EXPECT_DOUBLE_EQ(got[1].target_y, 2);
+  EXPECT_EQ(got[2].kind, msg::TaskKind::kExplore);
+  EXPECT_DOUBLE_EQ(got[2].target_x, -6);
+  EXPECT_DOUBLE_EQ(got[2].target_y, 6);
+  EXPECT_EQ(node.counters().bids_taken, 2u);
+  EXPECT_EQ(node.counters().bids_unlocalised, 1u);
+  EXPECT_EQ(node.counters().assignments_written, 2u);
+  EXPECT_NE(node.summary().find("bids 2 (unlocalised 1"), std::string::npos) << node.summary();
+
+  // Robot 2 falls silent: the fleet calls it lost and the allocator takes its task back.
+  fleet.on_lost(2, clock.now());
+  node.poll(clock.now(), fusion, fleet);
+  EXPECT_EQ(node.allocator().counters().link_losses, 1u);
+  const auto t2 = node.allocator().task(2);
+  ASSERT_TRUE(t2.has_value());
+  EXPECT_FALSE(t2->active);
+}
+
+}  // namespace
+}  // namespace cairn::base
