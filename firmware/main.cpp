@@ -102,6 +102,15 @@ int run(const std::string& config_path, int id_override, const std::string& name
   }
 
   const Nanos start = clock.now();
+  // Exploration ([explore] enabled): bids and plans on the base's map, on this thread.
+  std::unique_ptr<firmware::RobotExplorer> explorer;
+  auto bid = std::make_unique<msg::Bid>();
+  auto route = std::make_unique<msg::TaskAssignment>();
+  if (exec && cfg.explore.enabled) {
+    explorer = std::make_unique<firmware::RobotExplorer>(cfg.explore, cfg.id, cfg.global_map.max_cells);
+    CAIRN_LOG_INFO("robot", "explore: bidding every {} s on a map of up to {} cells", nanos_to_seconds(cfg.explore.bid_period),
+                   cfg.global_map.max_cells);
+  }
   const Nanos end = duration_s > 0 ? start + seconds_to_nanos(duration_s) : 0;
   const Nanos tick = exec ? cfg.bridge_period : 50 * kNanosPerMilli;
   Nanos next_status = start, next_progress = start + 10 * kNanosPerSecond, next = start;
@@ -118,10 +127,24 @@ int run(const std::string& config_path, int id_override, const std::string& name
     if (exec) {
       bridge.forward(*exec);
       const bool heard = bridge.poll_inputs([&](const msg::TaskAssignment& t) {
+        if (explorer) explorer->on_task(t);
+        // An exploring robot plans the base's target itself (next step below).
+        const bool planned_here = explorer && t.n_path == 0 &&
+                                  (t.kind == msg::TaskKind::kExplore || t.kind == msg::TaskKind::kGoto);
+        if (planned_here) return;
         const std::string why = nav.on_task(t, bridge.local_to_global());
         if (!why.empty()) CAIRN_LOG_WARN("robot", "{}", why);
       });
       if (heard) exec->note_link(now);
+      if (explorer && bridge.local_to_global()) {
+        const Pose2 global = compose(*bridge.local_to_global(), exec->rt_snapshot().local_pose);
+        const auto step = explorer->step(bridge.global_map(), global, now, bid.get(), route.get());
+        if (step.bid) bridge.publish_bid(*bid);
+        if (step.route) {
+          const std::string why = nav.on_task(*route, bridge.local_to_global(), /*replan=*/true);
+          if (!why.empty()) CAIRN_LOG_WARN("robot", "{}", why);
+        }
+      }
       double v = 0, w = 0;
       nav.command(exec->rt_snapshot().local_pose, &v, &w);
       exec->set_velocity(v, w, now);
@@ -129,6 +152,11 @@ int run(const std::string& config_path, int id_override, const std::string& name
       if (now >= next_progress) {
         next_progress += 10 * kNanosPerSecond;
         log_progress(cfg, *exec, bridge);
+        if (explorer) {
+          const auto& x = explorer->counters();
+          CAIRN_LOG_INFO("robot", "robot {} explore: bids {} (no frontier {}, failed {}), plans {} (failed {}, cut {})", cfg.id,
+                         x.bids, x.bids_no_frontier, x.bids_failed, x.plans, x.plan_failures, x.paths_cut);
+        }
       }
     }
     if (!exec) service.alive(++status_loops, now);  // status-only: no RT loop to watch

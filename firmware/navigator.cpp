@@ -11,13 +11,20 @@ Navigator::Navigator(const MotionConfig& cfg) : follower_cfg_(cfg.follower) {
   if (!cfg.waypoints.empty()) follower_ = std::make_unique<PathFollower>(cfg.waypoints, follower_cfg_);
 }
 
-std::string Navigator::on_task(const msg::TaskAssignment& task, const std::optional<Pose2>& local_to_global) {
-  if (task.task_id == task_id_) return {};  // a repeat (the topic is latched)
+std::string Navigator::on_task(const msg::TaskAssignment& task, const std::optional<Pose2>& local_to_global, bool replan) {
+  const bool repeat = task.task_id == task_id_ && task.kind == kind_ && task.target_x == target_x_ && task.target_y == target_y_;
+  if (repeat && !replan) return {};
+  const auto remember = [&] {
+    task_id_ = task.task_id;
+    kind_ = task.kind;
+    target_x_ = task.target_x;
+    target_y_ = task.target_y;
+  };
   switch (task.kind) {
     case msg::TaskKind::kStop:
     case msg::TaskKind::kIdle:
       follower_.reset();
-      task_id_ = task.task_id;
+      remember();
       return {};
     case msg::TaskKind::kGoto:
     case msg::TaskKind::kExplore: {
@@ -33,7 +40,7 @@ std::string Navigator::on_task(const msg::TaskAssignment& task, const std::optio
       if (!std::isfinite(target.x()) || !std::isfinite(target.y())) return "task " + std::to_string(task.task_id) + ": non-finite target";
       local.push_back(inverse_transform_point(*local_to_global, target));
       follower_ = std::make_unique<PathFollower>(std::move(local), follower_cfg_);
-      task_id_ = task.task_id;
+      remember();
       return {};
     }
   }

@@ -19,8 +19,11 @@ class Navigator {
  public:
   explicit Navigator(const MotionConfig& cfg);
   /// Applies a task. Returns an empty string, or why it was refused (a GOTO before
-  /// any PoseCorrection has no frame to be followed in; a NaN in the path).
-  std::string on_task(const msg::TaskAssignment& task, const std::optional<Pose2>& local_to_global);
+  /// any PoseCorrection has no frame to be followed in; a NaN in the path). A repeat (the
+  /// topic is latched) is ignored: the same task id, kind and target; a restarted base
+  /// numbers its tasks from 1 again, so the id alone is not enough. `replan` applies a
+  /// new path for the current task (the robot's own planner) even so.
+  std::string on_task(const msg::TaskAssignment& task, const std::optional<Pose2>& local_to_global, bool replan = false);
   /// Velocity to request now (zero when idle or done).
   void command(const Pose2& local_pose, double* v, double* w);
   bool active() const { return follower_ != nullptr && !follower_->done(); }
@@ -30,6 +33,8 @@ class Navigator {
   FollowerConfig follower_cfg_;
   std::unique_ptr<PathFollower> follower_;
   std::uint32_t task_id_ = 0;
+  msg::TaskKind kind_ = msg::TaskKind::kIdle;
+  double target_x_ = 0, target_y_ = 0;
 };
 
 }  // namespace cairn::firmware

@@ -31,6 +31,7 @@ RobotBridge::RobotBridge(const dds::Participant& pp, const RobotConfig& cfg)
       task_topic_(pp),
       reset_topic_(pp),
       tile_topic_(pp),
+      bid_topic_(pp),
       status_writer_(pp, status_topic_, [&] {
         dds::QosSpec q = dds::state_qos();
         q.liveliness_lease = cfg.liveliness_lease;
@@ -43,6 +44,7 @@ RobotBridge::RobotBridge(const dds::Participant& pp, const RobotConfig& cfg)
       task_reader_(pp, task_topic_, dds::latched_qos()),
       reset_reader_(pp, reset_topic_, dds::state_qos(4)),  // volatile: never an old reset
       tile_reader_(pp, tile_topic_, dds::latched_qos()),  // as the base writes them: a late robot gets all
+      bid_writer_(pp, bid_topic_, dds::state_qos(1)),  // the latest bid is what counts
       global_map_(cfg.global_map) {
   status_.robot_id = cfg.id;
   dds::set_text(status_.name, cfg.name);
@@ -147,6 +149,11 @@ std::size_t RobotBridge::take_map_tiles() {
     if (global_map_.apply(map_tile_view(t)) == GlobalMap::Applied::kStored) ++n;
   });
   return n;
+}
+
+void RobotBridge::publish_bid(const msg::Bid& bid) {
+  dds::to_dds(bid, bid_dds_.get());
+  write(bid_writer_, *bid_dds_, &counters_.bids);
 }
 
 void RobotBridge::dispose() { status_writer_.dispose(status_); }

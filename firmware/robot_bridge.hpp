@@ -23,6 +23,7 @@ struct BridgeCounters {
   std::uint64_t odometry = 0, lasers = 0, features = 0, statuses = 0, corrections = 0, tasks = 0, write_failures = 0;
   std::uint64_t invalid_inputs = 0;  // samples from the base that had to be clamped
   std::uint64_t resets = 0;          // SafetyReset samples for this robot
+  std::uint64_t bids = 0;
 };
 
 /// A MapTile sample as the robot's GlobalMap takes it (the edge's one conversion; the
@@ -49,6 +50,8 @@ class RobotBridge {
   /// Returns how many were stored.
   std::size_t take_map_tiles();
   const GlobalMap& global_map() const { return global_map_; }
+  /// Writes this robot's frontier bid.
+  void publish_bid(const msg::Bid& bid);
   /// The latest local->global transform from the base station, if any.
   const std::optional<Pose2>& local_to_global() const { return local_to_global_; }
   /// Tells the base the robot left on purpose (it shows "left", not "lost").
@@ -69,6 +72,7 @@ class RobotBridge {
   dds::Topic<cairn_TaskAssignment> task_topic_;
   dds::Topic<cairn_SafetyReset> reset_topic_;
   dds::Topic<cairn_MapTile> tile_topic_;
+  dds::Topic<cairn_Bid> bid_topic_;
   dds::Writer<cairn_RobotStatus> status_writer_;
   dds::Writer<cairn_OdometryIncrement> odom_writer_;
   dds::Writer<cairn_LaserScan> laser_writer_;
@@ -77,6 +81,7 @@ class RobotBridge {
   dds::Reader<cairn_TaskAssignment> task_reader_;
   dds::Reader<cairn_SafetyReset> reset_reader_;
   dds::Reader<cairn_MapTile> tile_reader_;
+  dds::Writer<cairn_Bid> bid_writer_;
   GlobalMap global_map_;
   cairn_RobotStatus status_{};
   // Conversion buffers, reserved once (a LaserScan is ~3 KB).
@@ -84,6 +89,7 @@ class RobotBridge {
   std::unique_ptr<msg::FeatureObservations> feat_ = std::make_unique<msg::FeatureObservations>();
   std::unique_ptr<cairn_LaserScan> laser_dds_ = std::make_unique<cairn_LaserScan>();
   std::unique_ptr<cairn_FeatureObservations> feat_dds_ = std::make_unique<cairn_FeatureObservations>();
+  std::unique_ptr<cairn_Bid> bid_dds_ = std::make_unique<cairn_Bid>();
   std::optional<Pose2> local_to_global_;
   bool ever_ready_ = false;
   BridgeCounters counters_;

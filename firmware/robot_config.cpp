@@ -117,6 +117,16 @@ void read_map(const ConfigSection& m, GlobalMapConfig* g) {
   if (!(g->p_c < g->p_o)) m.fail("p_c", "must be below p_o (" + std::to_string(g->p_o) + ")");
 }
 
+void read_explore(const ConfigSection& e, RobotExploreConfig* x) {
+  x->enabled = e.boolean_or("enabled", x->enabled);
+  x->bid_period = seconds_key(e, "bid_period_s", x->bid_period, {0.1, 600.0});
+  const double radius = e.number_or("robot_radius_m", x->bidder.robot_radius_m, {0.05, 5.0});
+  x->bidder.robot_radius_m = x->planner.robot_radius_m = radius;
+  x->bidder.sensor_range_m = e.number_or("sensor_range_m", x->bidder.sensor_range_m, {0.5, 80.0});
+  x->bidder.frontier_spacing_m = e.number_or("frontier_spacing_m", x->bidder.frontier_spacing_m, {0.01, 10.0});
+  x->bidder.gain_per_metre = e.number_or("gain_per_metre", x->bidder.gain_per_metre, {0.0, 1e6});
+}
+
 RobotConfig read(const ConfigDocument& doc) {
   const ConfigSection root = doc.root();
   RobotConfig c;
@@ -140,6 +150,7 @@ RobotConfig read(const ConfigDocument& doc) {
   if (const auto m = root.optional_section("mapping")) read_mapping(*m, &c.executive);
   if (const auto m = root.optional_section("motion")) read_motion(*m, &c.motion);
   if (const auto m = root.optional_section("map")) read_map(*m, &c.global_map);
+  if (const auto e = root.optional_section("explore")) read_explore(*e, &c.explore);
   if (c.has_devices) check_localmap_budget(root, c.executive);
   c.motion.follower.max_w = std::min(c.motion.follower.max_w, c.executive.safety.max_w);
   doc.finish();

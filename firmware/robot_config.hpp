@@ -12,6 +12,7 @@
 #include "firmware/executive/executive.hpp"
 #include "firmware/executive/path_follower.hpp"
 #include "firmware/global_map.hpp"
+#include "firmware/robot_explorer.hpp"
 
 namespace cairn::firmware {
 
@@ -33,6 +34,7 @@ struct RobotConfig {
   MotionConfig motion;
   Nanos bridge_period = 2 * kNanosPerMilli;  // how often the DDS side drains the RT queues
   GlobalMapConfig global_map;                // [map]: the base's MapTiles, kept for the bids
+  RobotExploreConfig explore;                // [explore]: bids and planning on that map
 };
 
 /// Loads and validates a robot configuration; throws ConfigError naming file, key and expected form.

@@ -110,5 +110,27 @@ TEST(Navigator, GotoIsFollowedInTheLocalFrameThroughTheCorrection) {
   EXPECT_FALSE(nav.active());
 }
 
+TEST(Navigator, ARestartedBasesTaskWithAnOldIdIsNotTakenForARepeat) {
+  firmware::MotionConfig m;
+  firmware::Navigator nav(m);
+  const Pose2 local_to_global{0, 0, 0};
+  ASSERT_EQ(nav.on_task(goto_task(1, 4, 0), local_to_global), "");
+  msg::TaskAssignment idle{};
+  idle.task_id = 2;
+  idle.kind = msg::TaskKind::kIdle;
+  ASSERT_EQ(nav.on_task(idle, local_to_global), "");
+  EXPECT_FALSE(nav.active());
+  // The same task again (the latched topic's repeat) changes nothing.
+  ASSERT_EQ(nav.on_task(idle, local_to_global), "");
+  EXPECT_FALSE(nav.active());
+  // The base restarted and numbers its tasks from 1 again: task 2 is now a goto elsewhere.
+  // The old navigator took the id alone for a repeat and stood still.
+  ASSERT_EQ(nav.on_task(goto_task(2, 0, 3), local_to_global), "");
+  EXPECT_TRUE(nav.active());
+  double v = 0, w = 0;
+  nav.command({}, &v, &w);
+  EXPECT_GT(w, 0.0) << "turning towards (0, 3)";
+}
+
 }  // namespace
 }  // namespace cairn

@@ -1,0 +1,99 @@
+#include "firmware/robot_explorer.hpp"
+
+#include <algorithm>
+
+namespace cairn::firmware {
+
+namespace {
+explore::FrontierBidderConfig sized(explore::FrontierBidderConfig c, std::size_t max_cells) {
+  c.max_cells = max_cells;
+  return c;
+}
+explore::GridPlannerConfig sized(explore::GridPlannerConfig c, std::size_t max_cells) {
+  c.max_cells = max_cells;
+  return c;
+}
+bool moving(msg::TaskKind k) { return k == msg::TaskKind::kExplore || k == msg::TaskKind::kGoto; }
+}  // namespace
+
+RobotExplorer::RobotExplorer(const RobotExploreConfig& config, std::uint16_t robot_id, std::size_t max_cells)
+    : config_(config),
+      robot_id_(robot_id),
+      bidder_(sized(config.bidder, max_cells)),
+      planner_(sized(config.planner, max_cells)) {
+  grid_.cells.reserve(max_cells);
+  path_.reserve(1024);
+}
+
+void RobotExplorer::on_task(const msg::TaskAssignment& task) {
+  task_ = task;
+  task_active_ = moving(task.kind);
+  task_new_ = task_active_;
+}
+
+bool RobotExplorer::plan(const Pose2& robot_global, msg::TaskAssignment* route) {
+  *route = task_;
+  route->n_path = 0;
+  ++counters_.plans;
+  const Vec2 goal(task_.target_x, task_.target_y);
+  const explore::PlanStatus s = have_grid_ ? planner_.plan(grid_.geometry, grid_.cells.data(), robot_global.translation(), goal, &path_)
+                                           : explore::PlanStatus::kBadMap;
+  if (s != explore::PlanStatus::kOk) {
+    // Stand: the base's monitor takes the task back when no progress follows.
+    ++counters_.plan_failures;
+    route->kind = msg::TaskKind::kIdle;
+    return false;
+  }
+  // The Navigator follows path_xy and then the target; the path's last point is the goal
+  // the planner reached (an unreachable goal cell is replaced by a reachable one near it).
+  // A path longer than a task holds is cut, and its last kept point is this leg's target:
+  // the next replan goes on from there.
+  std::size_t n = path_.size();
+  if (n > msg::kMaxPath + 1) {
+    ++counters_.paths_cut;
+    n = msg::kMaxPath + 1;
+  }
+  if (n > 0) {
+    route->target_x = path_[n - 1].x();
+    route->target_y = path_[n - 1].y();
+  }
+  const std::size_t waypoints = n == 0 ? 0 : n - 1;  // the last one is the target
+  route->n_path = static_cast<std::uint16_t>(waypoints);
+  for (std::size_t i = 0; i < waypoints; ++i) {
+    route->path_xy[2 * i] = path_[i].x();
+    route->path_xy[2 * i + 1] = path_[i].y();
+  }
+  return true;
+}
+
+RobotExplorer::Step RobotExplorer::step(const GlobalMap& map, const Pose2& robot_global, Nanos now, msg::Bid* bid,
+                                        msg::TaskAssignment* route) {
+  Step out;
+  const bool period = now >= next_period_;
+  if (!period && !task_new_) return out;
+  if (period) {
+    next_period_ = now + config_.bid_period;
+    have_grid_ = map.classify(&grid_);
+    if (have_grid_) {
+      *bid = msg::Bid{};
+      const explore::BidStatus s = bidder_.compute(grid_.geometry, grid_.cells.data(), robot_global, bid);
+      if (s == explore::BidStatus::kOk || s == explore::BidStatus::kNoFrontier) {
+        // An empty bid says "nothing left for me": the base's end of exploration needs it.
+        ++(s == explore::BidStatus::kOk ? counters_.bids : counters_.bids_no_frontier);
+        bid->robot_id = robot_id_;
+        bid->seq = ++bid_seq_;
+        out.bid = true;
+      } else {
+        ++counters_.bids_failed;
+      }
+    }
+  }
+  if (task_active_ && (task_new_ || period)) {
+    task_new_ = false;
+    (void)plan(robot_global, route);
+    out.route = true;
+  }
+  return out;
+}
+
+}  // namespace cairn::firmware

@@ -1,0 +1,164 @@
+// A robot's exploration over its copy of the global map (firmware/robot_explorer.hpp):
+// bids every period from its global pose, plans the base's target around walls, replans
+// every period, stands when it cannot plan, and cuts a path to what a task holds.
+#include "firmware/robot_explorer.hpp"
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <functional>
+
+namespace cairn::firmware {
+namespace {
+
+constexpr double kRes = 0.15;
+constexpr int kSide = kMapTileSide;
+
+// Fills a GlobalMap of tiles_x × tiles_y tiles (origin 0, 0) with the occupancy `at(x, y)`
+// gives for each cell centre (0 clear, 100 obstacle, kMapTileUnknown).
+void fill(GlobalMap* map, int tiles_x, int tiles_y, const std::function<std::uint8_t(double, double)>& at) {
+  std::array<std::uint8_t, kSide * kSide> cells{};
+  for (int ty = 0; ty < tiles_y; ++ty) {
+    for (int tx = 0; tx < tiles_x; ++tx) {
+      for (int cj = 0; cj < kSide; ++cj) {
+        for (int ci = 0; ci < kSide; ++ci) {
+          cells[static_cast<std::size_t>(cj * kSide + ci)] = at((tx * kSide + ci + 0.5) * kRes, (ty * kSide + cj + 0.5) * kRes);
+        }
+      }
+      const TileView v{static_cast<std::int16_t>(tx), static_cast<std::int16_t>(ty), kRes, tx * kSide * kRes, ty * kSide * kRes,
+                       std::span<const std::uint8_t>(cells)};
+      ASSERT_EQ(map->apply(v), GlobalMap::Applied::kStored);
+    }
+  }
+}
+
+// A 6 × 6 m room (x, y in [1, 7]) with 0.3 m walls and a 1.2 m door in its east wall at
+// y in [3.4, 4.6]; beyond the east wall nothing is known yet.
+std::uint8_t room(double x, double y) {
+  if (x > 7.3) return kMapTileUnknown;
+  if (x < 0.7 || y < 0.7 || y > 7.3) return 100;
+  const bool wall = x < 1.0 || y < 1.0 || y > 7.0 || x > 7.0;
+  const bool door = x > 7.0 && y > 3.4 && y < 4.6;
+  return wall && !door ? 100 : 0;
+}
+
+GlobalMapConfig map_cfg(std::size_t tiles) {
+  GlobalMapConfig c;
+  c.max_cells = tiles * kSide * kSide;
+  return c;
+}
+
+RobotExploreConfig explore_cfg() {
+  RobotExploreConfig c;
+  c.enabled = true;
+  c.bid_period = 2 * kNanosPerSecond;
+  c.bidder.sensor_range_m = 4.0;
+  return c;
+}
+
+msg::TaskAssignment task(std::uint32_t id, msg::TaskKind kind, double x, double y) {
+  msg::TaskAssignment t{};
+  t.robot_id = 5;
+  t.task_id = id;
+  t.kind = kind;
+  t.target_x = x;
+  t.target_y = y;
+  return t;
+}
+
+TEST(RobotExplorer, BidsTheDoorEveryPeriodFromItsGlobalPose) {
+  GlobalMap map(map_cfg(4));
+  fill(&map, 2, 2, room);
+  RobotExplorer ex(explore_cfg(), 5, map_cfg(4).max_cells);
+  msg::Bid bid;
+  msg::TaskAssignment route;
+  const Pose2 at{3, 3, 0};
+  auto s = ex.step(map, at, 0, &bid, &route);
+  ASSERT_TRUE(s.bid);
+  EXPECT_FALSE(s.route);
+  EXPECT_EQ(bid.robot_id, 5);
+  EXPECT_EQ(bid.seq, 1u);
+  ASSERT_GE(bid.n_items, 1);
+  for (std::size_t k = 0; k < bid.n_items; ++k) {  // the only frontier: the door's cells
+    EXPECT_NEAR(bid.items[k].x, 7.15, 0.2) << k;
+    EXPECT_GT(bid.items[k].y, 3.3) << k;
+    EXPECT_LT(bid.items[k].y, 4.7) << k;
+    EXPECT_GT(bid.items[k].gain, 100) << "the unknown east beyond the door";
+    EXPECT_GT(bid.items[k].cost, 4.0);
+  }
+  EXPECT_FALSE(ex.step(map, at, kNanosPerSecond, &bid, &route).bid) << "not before the period";
+  s = ex.step(map, at, 2 * kNanosPerSecond, &bid, &route);
+  EXPECT_TRUE(s.bid);
+  EXPECT_EQ(bid.seq, 2u);
+  EXPECT_EQ(ex.counters().bids, 2u);
+}
+
+TEST(RobotExplorer, ATaskIsPlannedAroundTheWallsAtOnceAndReplannedEachPeriod) {
+  GlobalMap map(map_cfg(4));
+  fill(&map, 2, 2, room);
+  RobotExplorer ex(explore_cfg(), 5, map_cfg(4).max_cells);
+  msg::Bid bid;
+  msg::TaskAssignment route;
+  const Pose2 at{2, 6, 0};  // north-west corner: the straight line to the door is clear, the plan must keep off walls
+  (void)ex.step(map, at, 0, &bid, &route);
+  ex.on_task(task(11, msg::TaskKind::kExplore, 7.15, 4.0));
+  auto s = ex.step(map, at, 100 * kNanosPerMilli, &bid, &route);  // a new task is planned at once
+  ASSERT_TRUE(s.route);
+  EXPECT_FALSE(s.bid);
+  EXPECT_EQ(route.kind, msg::TaskKind::kExplore);
+  EXPECT_EQ(route.task_id, 11u);
+  ASSERT_GE(route.n_path, 5);
+  EXPECT_NEAR(route.target_x, 7.15, 0.2);
+  EXPECT_NEAR(route.target_y, 4.0, 0.2);
+  Vec2 prev(2, 6);
+  for (std::size_t i = 0; i < route.n_path; ++i) {
+    const Vec2 p(route.path_xy[2 * i], route.path_xy[2 * i + 1]);
+    EXPECT_EQ(room(p.x(), p.y()), 0) << "waypoint " << i << " at " << p.transpose() << " is not clear";
+    EXPECT_GT(p.x(), 1.2) << "kept off the west wall";
+    EXPECT_LT((p - prev).norm(), 0.5) << "waypoints about 0.3 m apart";
+    prev = p;
+  }
+  EXPECT_FALSE(ex.step(map, at, kNanosPerSecond, &bid, &route).route) << "no replan before the period";
+  s = ex.step(map, Pose2{4, 5, 0}, 2 * kNanosPerSecond, &bid, &route);
+  EXPECT_TRUE(s.route) << "replanned from where the robot is now";
+  EXPECT_TRUE(s.bid);
+  EXPECT_EQ(ex.counters().plans, 2u);
+  // The base says idle: nothing more to plan.
+  ex.on_task(task(12, msg::TaskKind::kIdle, 0, 0));
+  EXPECT_FALSE(ex.step(map, at, 4 * kNanosPerSecond, &bid, &route).route);
+}
+
+TEST(RobotExplorer, WithoutAMapItBidsNothingAndStandsOnATask) {
+  GlobalMap map(map_cfg(4));
+  RobotExplorer ex(explore_cfg(), 5, map_cfg(4).max_cells);
+  msg::Bid bid;
+  msg::TaskAssignment route;
+  ex.on_task(task(3, msg::TaskKind::kGoto, 5, 5));
+  const auto s = ex.step(map, Pose2{1, 1, 0}, 0, &bid, &route);
+  EXPECT_FALSE(s.bid);
+  ASSERT_TRUE(s.route);
+  EXPECT_EQ(route.kind, msg::TaskKind::kIdle) << "no plan: stand, the base's monitor takes the task back";
+  EXPECT_EQ(ex.counters().plan_failures, 1u);
+}
+
+TEST(RobotExplorer, APathLongerThanATaskHoldsIsCutAndItsLastKeptPointIsTheLeg) {
+  // A 38 m clear corridor, 9.6 m wide.
+  GlobalMap map(map_cfg(4));
+  fill(&map, 4, 1, [](double, double y) -> std::uint8_t { return y < 0.5 || y > 9.1 ? 100 : 0; });
+  RobotExplorer ex(explore_cfg(), 5, map_cfg(4).max_cells);
+  msg::Bid bid;
+  msg::TaskAssignment route;
+  ex.on_task(task(4, msg::TaskKind::kGoto, 37.0, 4.8));
+  const auto s = ex.step(map, Pose2{1.0, 4.8, 0}, 0, &bid, &route);
+  ASSERT_TRUE(s.route);
+  EXPECT_EQ(route.kind, msg::TaskKind::kGoto);
+  EXPECT_EQ(route.n_path, msg::kMaxPath);
+  EXPECT_EQ(ex.counters().paths_cut, 1u);
+  // 65 points 0.30 m apart from x = 1: the leg ends near x = 20.5, not at 37.
+  EXPECT_NEAR(route.target_x, 1.0 + 65 * 0.30, 0.5);
+  EXPECT_GT(route.target_x, route.path_xy[2 * (msg::kMaxPath - 1)]);
+}
+
+}  // namespace
+}  // namespace cairn::firmware
