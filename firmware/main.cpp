@@ -92,7 +92,10 @@ int run(const std::string& config_path, int id_override, const std::string& name
     exec = std::make_unique<firmware::Executive>(cfg.executive, clock, std::move(devices));
     exec->start();
   }
-  firmware::Navigator nav(cfg.motion);
+  // An exploring robot goes where the base's tasks send it: no scripted route.
+  firmware::MotionConfig motion = cfg.motion;
+  if (cfg.explore.enabled) motion.waypoints.clear();
+  firmware::Navigator nav(motion);
   firmware::ServiceNotifier service;
   std::uint64_t status_loops = 0;
   service.ready(describe(cfg));
