@@ -1,19 +1,21 @@
 #!/usr/bin/env bash
 # The main job: installs what is missing, builds, and runs the HIL demo live — three
-# robots tour the office world (hil/worlds/office.world) through emulated devices that
+# robots explore the office world (hil/worlds/office.world) through emulated devices that
 # speak the real wire protocols (SICK LMS2xx on ptys, CiA 402 drives on a CAN bus,
-# Modbus power boards), each run by the production cairn-robot, all fused by cairn-base
-# over DDS on the loopback-only profile. Robot 2's e-stop is pressed for 3 s at 30 s.
-#   scripts/demo.sh [--duration SECONDS] [--robots N]   (defaults 120, 3)
+# Modbus power boards), each run by the production cairn-robot; cairn-base fuses them,
+# builds the global map and assigns frontiers from the robots' bids, all over DDS on the
+# loopback-only profile. It ends when the base reports the office explored, or at the
+# time cap. Robot 2's e-stop is pressed for 3 s at 30 s.
+#   scripts/demo.sh [--duration SECONDS] [--robots N]   (defaults: cap 240 s, 3 robots)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-duration=120
+duration=240
 robots=3
 while (($#)); do
   case "$1" in
     --duration) duration=$2; shift 2 ;;
     --robots) robots=$2; shift 2 ;;
-    -h|--help) sed -n '2,7p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,9p' "$0"; exit 0 ;;
     *) echo "demo: unknown option '$1'" >&2; exit 2 ;;
   esac
 done
@@ -31,15 +33,17 @@ pids=()
 cleanup() { kill -INT "${pids[@]}" 2>/dev/null || true; wait 2>/dev/null || true; }
 trap cleanup EXIT INT TERM
 
-echo "demo: HIL bench with $robots robot(s) in the office world; logs in $run/"
-$B/hil/cairn-hil robots --world hil/worlds/office.world --count "$robots" --template config/robot-hil.toml \
+# The bench's robot template, exploring: no scripted route, bids on the base's map.
+{ cat config/robot-hil.toml; printf '\n[explore]\nenabled = true\n'; } > "$run/robot-template.toml"
+echo "demo: HIL bench with $robots robot(s) exploring the office world; logs in $run/"
+$B/hil/cairn-hil robots --world hil/worlds/office.world --count "$robots" --template "$run/robot-template.toml" \
   --out "$run" --truth "$run/truth.txt" --report 10 --fault 30:2:estop:3 --duration "$((duration + 5))" \
   > >(tee "$run/hil.log") 2>&1 &
 pids+=($!)
 for _ in $(seq 100); do grep -q "cairn-hil: ready" "$run/hil.log" 2>/dev/null && break; sleep 0.1; done
 grep -q "cairn-hil: ready" "$run/hil.log" || { echo "demo: the HIL bench did not come up" >&2; exit 1; }
 
-$B/basestation/cairn-base --config config/base-hil.toml --duration "$duration" 2>"$run/base.err" &
+$B/basestation/cairn-base --config config/base-hil.toml --duration "$duration" 2>"$run/base.err" > >(tee "$run/base.out") &
 base=$!
 sleep 0.5
 for id in $(seq "$robots"); do
@@ -52,9 +56,41 @@ if [ "$robots" -ge 2 ]; then
   (sleep 36; echo "demo: operator resets robot 2's released e-stop from the base";
    $B/basestation/cairn-base --config config/base-hil.toml --reset-estop 2 >"$run/reset.log" 2>&1) &
 fi
-wait "$base"
-sleep 1
+# Live coverage against the world's ground truth: every 20 s the base is asked for its
+# map (SIGUSR1) and cairn-map-quality compares it with the world.
+world=hil/worlds/office.world
+coverage() {
+  $B/tools/map_quality/cairn-map-quality --map "$run/map/map.yaml" --world "$world" 2>/dev/null |
+    awk '/^coverage/ {c=$2} /^agreement/ {a=$2} END {if (c != "") printf "coverage %.1f %% of the reachable free space, agreement %.1f %%", c, a}'
+}
+t0=$(date +%s)
+next=20
+while kill -0 "$base" 2>/dev/null; do
+  sleep 1
+  if grep -q "exploration complete" "$run/base.err" 2>/dev/null; then
+    echo "demo: the base reports the office explored after $(( $(date +%s) - t0 )) s"
+    sleep 2
+    kill -INT "$base" 2>/dev/null || true
+    break
+  fi
+  if (( $(date +%s) - t0 >= next )); then
+    next=$((next + 20))
+    kill -USR1 "$base" 2>/dev/null || true
+    sleep 1
+    echo "demo: at $(( $(date +%s) - t0 )) s: $(coverage)"
+  fi
+done
+wait "$base" || true
+for p in "${pids[@]:1}"; do kill -INT "$p" 2>/dev/null || true; done
+sleep 2
 echo
-echo "demo: robots' own view (last progress line each; full logs in $run/robot-N.log):"
-for id in $(seq "$robots"); do grep "robot $id:" "$run/robot-$id.log" | tail -1 | sed 's/^\[[^]]*\] *info *//'; done
+echo "demo: robots' own view (last progress lines; full logs in $run/robot-N.log):"
+for id in $(seq "$robots"); do
+  grep "robot $id:" "$run/robot-$id.log" | tail -1 | sed 's/^\[[^]]*\] *info *//'
+  grep "robot $id explore:" "$run/robot-$id.log" | tail -1 | sed 's/^\[[^]]*\] *info *//'
+done
+grep "explore:" "$run/base.out" | tail -1
+echo
+echo "demo: the base's map at exit ($run/map: map.png with trajectories and landmark ellipses, map.pgm + map.yaml for map_server, landmarks.json):"
+$B/tools/map_quality/cairn-map-quality --map "$run/map/map.yaml" --world "$world" | sed 's/^/  /'
 echo "demo: done (ground truth in $run/truth.txt)"
