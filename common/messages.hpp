@@ -106,6 +106,8 @@ struct PoseCorrection {
 };
 
 enum class TaskKind : std::uint8_t { kIdle = 0, kExplore = 1, kGoto = 2, kStop = 3 };
+/// The kinds that send the robot somewhere (a target to plan to).
+constexpr bool task_moves(TaskKind k) { return k == TaskKind::kExplore || k == TaskKind::kGoto; }
 
 struct TaskAssignment {
   std::uint16_t robot_id = 0;

@@ -132,8 +132,7 @@ int run(const std::string& config_path, int id_override, const std::string& name
       const bool heard = bridge.poll_inputs([&](const msg::TaskAssignment& t) {
         if (explorer) explorer->on_task(t);
         // An exploring robot plans the base's target itself (next step below).
-        const bool planned_here = explorer && t.n_path == 0 &&
-                                  (t.kind == msg::TaskKind::kExplore || t.kind == msg::TaskKind::kGoto);
+        const bool planned_here = explorer && t.n_path == 0 && msg::task_moves(t.kind);
         if (planned_here) return;
         const std::string why = nav.on_task(t, bridge.local_to_global());
         if (!why.empty()) CAIRN_LOG_WARN("robot", "{}", why);

@@ -4,30 +4,18 @@
 
 namespace cairn::firmware {
 
-namespace {
-explore::FrontierBidderConfig sized(explore::FrontierBidderConfig c, std::size_t max_cells) {
-  c.max_cells = max_cells;
-  return c;
-}
-explore::GridPlannerConfig sized(explore::GridPlannerConfig c, std::size_t max_cells) {
-  c.max_cells = max_cells;
-  return c;
-}
-bool moving(msg::TaskKind k) { return k == msg::TaskKind::kExplore || k == msg::TaskKind::kGoto; }
-}  // namespace
-
 RobotExplorer::RobotExplorer(const RobotExploreConfig& config, std::uint16_t robot_id, std::size_t max_cells)
     : config_(config),
       robot_id_(robot_id),
-      bidder_(sized(config.bidder, max_cells)),
-      planner_(sized(config.planner, max_cells)) {
+      bidder_(explore::sized(config.bidder, max_cells)),
+      planner_(explore::sized(config.planner, max_cells)) {
   grid_.cells.reserve(max_cells);
   path_.reserve(1024);
 }
 
 void RobotExplorer::on_task(const msg::TaskAssignment& task) {
   task_ = task;
-  task_active_ = moving(task.kind);
+  task_active_ = msg::task_moves(task.kind);
   task_new_ = task_active_;
 }
 

@@ -38,6 +38,12 @@ enum class BidStatus : std::uint8_t {
 
 const char* to_string(BidStatus s);
 
+/// `c` with max_cells set (a map size known only where the bidder is built).
+inline FrontierBidderConfig sized(FrontierBidderConfig c, std::size_t max_cells) {
+  c.max_cells = max_cells;
+  return c;
+}
+
 /// What the last compute() saw; the unreachable count is what issue 15 asks the base to
 /// report instead of chasing frontiers the robot cannot fit through.
 struct BidStats {

@@ -29,6 +29,12 @@ enum class PlanStatus : std::uint8_t { kOk, kBadMap, kMapTooLarge, kStartOutside
 
 const char* to_string(PlanStatus s);
 
+/// `c` with max_cells set (a map size known only where the planner is built).
+inline GridPlannerConfig sized(GridPlannerConfig c, std::size_t max_cells) {
+  c.max_cells = max_cells;
+  return c;
+}
+
 class GridPlanner {
  public:
   /// Throws std::invalid_argument naming the offending parameter.

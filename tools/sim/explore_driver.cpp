@@ -4,22 +4,10 @@
 
 namespace cairn::sim {
 
-namespace {
-explore::FrontierBidderConfig sized(explore::FrontierBidderConfig c, std::size_t max_cells) {
-  c.max_cells = max_cells;
-  return c;
-}
-explore::GridPlannerConfig sized(explore::GridPlannerConfig c, std::size_t max_cells) {
-  c.max_cells = max_cells;
-  return c;
-}
-bool moving(msg::TaskKind k) { return k == msg::TaskKind::kExplore || k == msg::TaskKind::kGoto; }
-}  // namespace
-
 ExploreDriver::ExploreDriver(const ExploreConfig& config, std::size_t max_cells)
     : config_(config),
-      bidder_(sized(config.bidder, max_cells)),
-      planner_(sized(config.planner, max_cells)),
+      bidder_(explore::sized(config.bidder, max_cells)),
+      planner_(explore::sized(config.planner, max_cells)),
       allocator_(config.allocator) {}
 
 void ExploreDriver::plan_for(std::size_t index, const RobotView& r, std::vector<PathOrder>* orders, bool back_off) {
@@ -28,7 +16,7 @@ void ExploreDriver::plan_for(std::size_t index, const RobotView& r, std::vector<
   o.index = index;
   o.back_off = back_off;
   bumps_[index] = r.bumps;
-  if (!task || !moving(task->kind) || !r.localised) return;  // stop
+  if (!task || !msg::task_moves(task->kind) || !r.localised) return;  // stop
   ++counters_.plans;
   const explore::PlanStatus s =
       planner_.plan(grid_.geometry, grid_.cells.data(), r.global.translation(), task->target, &path_);
@@ -85,7 +73,7 @@ bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, boo
   for (std::size_t k = 0; k < robots.size(); ++k) {
     if (planned[k]) continue;
     const auto task = allocator_.task(robots[k].id);
-    if (!task || !task->active || !moving(task->kind)) continue;
+    if (!task || !task->active || !msg::task_moves(task->kind)) continue;
     const bool bumped = robots[k].bumps != bumps_[k];
     if (!bid_now && !bumped) continue;
     if (bumped) ++counters_.replans_after_bump;
