@@ -131,10 +131,11 @@ EstopResetResult reset_estop(const dds::Participant& pp, const EstopResetRequest
     dds_wait_for_acks(writer.handle(), std::max<Nanos>(0, std::min(deadline - clock.now(), 2 * kNanosPerSecond)));
     // A status written before the robot took the reset may still say 8: wait for a later one.
     const Nanos try_end = std::min(deadline, sent_at + req.confirm_wait);
-    while (poll_status(try_end)) {
+    while (clock.now() < try_end && poll_status(try_end)) {
       if (heard_at <= sent_at) continue;
       if (res.last_reason == StopReason::kResetRequired) continue;
-      if (stop_reason_masks_latch(res.last_reason)) {
+      if (stop_reason_masks_latch(res.last_reason) ||
+          static_cast<std::uint8_t>(res.last_reason) > static_cast<std::uint8_t>(StopReason::kResetRequired)) {
         return finish(EstopResetOutcome::kCannotReset, "reset sent, but now " + reason_line());
       }
       return finish(EstopResetOutcome::kConfirmed, "reset accepted after " + std::to_string(res.sent) + " send(s), now " +

@@ -54,8 +54,11 @@ GlobalMap::Applied GlobalMap::apply(const TileView& t) {
       ty0 = std::min<int>(ty0, slots_[m].ty);
       ty1 = std::max<int>(ty1, slots_[m].ty);
     }
-    const auto box = static_cast<std::size_t>(tx1 - tx0 + 1) * static_cast<std::size_t>(ty1 - ty0 + 1) * kTileArea;
-    if (used_ == slots_.size() || box > cfg_.max_cells) {
+    // Per axis first, then in 64 bits: on a 32-bit robot a product of two wild tile keys
+    // (-32768 and 32767) wraps to a small number.
+    const auto max_tiles = static_cast<std::uint64_t>(cfg_.max_cells / kTileArea);
+    const auto bx = static_cast<std::uint64_t>(tx1 - tx0 + 1), by = static_cast<std::uint64_t>(ty1 - ty0 + 1);
+    if (used_ == slots_.size() || bx > max_tiles || by > max_tiles || bx * by > max_tiles) {
       ++counters_.out_of_room;
       return Applied::kOutOfRoom;
     }

@@ -111,7 +111,7 @@ void read_motion(const ConfigSection& m, MotionConfig* motion) {
 
 void read_map(const ConfigSection& m, GlobalMapConfig* g) {
   g->max_cells = static_cast<std::size_t>(
-      m.integer_or("max_cells", static_cast<std::int64_t>(g->max_cells), {4096, std::int64_t{1} << 24}));
+      m.integer_or("max_cells", static_cast<std::int64_t>(g->max_cells), {4096, std::int64_t{1} << 22}));
   g->p_o = m.number_or("p_o", g->p_o, {0.0, 1.0});
   g->p_c = m.number_or("p_c", g->p_c, {0.0, 1.0});
   if (!(g->p_c < g->p_o)) m.fail("p_c", "must be below p_o (" + std::to_string(g->p_o) + ")");

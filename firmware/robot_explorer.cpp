@@ -15,7 +15,7 @@ RobotExplorer::RobotExplorer(const RobotExploreConfig& config, std::uint16_t rob
 
 void RobotExplorer::on_task(const msg::TaskAssignment& task) {
   task_ = task;
-  task_active_ = msg::task_moves(task.kind);
+  task_active_ = msg::task_moves(task.kind) && task.n_path == 0;  // a path from the base is followed as given
   task_new_ = task_active_;
 }
 

@@ -36,8 +36,8 @@ class RobotExplorer {
   /// Throws std::invalid_argument for a bad bidder or planner parameter.
   RobotExplorer(const RobotExploreConfig& config, std::uint16_t robot_id, std::size_t max_cells);
 
-  /// A task from the base. EXPLORE and GOTO are planned at the next step(); any other
-  /// kind ends the current one (the Navigator applies it as it is).
+  /// A task from the base. EXPLORE and GOTO without a path are planned at the next
+  /// step(); anything else ends the current one (the Navigator applies it as it is).
   void on_task(const msg::TaskAssignment& task);
 
   struct Step {

@@ -31,7 +31,8 @@ mkdir -p "$run"
 
 pids=()
 cleanup() { kill -INT "${pids[@]}" 2>/dev/null || true; wait 2>/dev/null || true; }
-trap cleanup EXIT INT TERM
+trap cleanup EXIT
+trap 'cleanup; exit 130' INT TERM
 
 # The bench's robot template, exploring: no scripted route, bids on the base's map.
 { cat config/robot-hil.toml; printf '\n[explore]\nenabled = true\n'; } > "$run/robot-template.toml"
@@ -45,6 +46,7 @@ grep -q "cairn-hil: ready" "$run/hil.log" || { echo "demo: the HIL bench did not
 
 $B/basestation/cairn-base --config config/base-hil.toml --duration "$duration" 2>"$run/base.err" > >(tee "$run/base.out") &
 base=$!
+pids+=("$base")
 sleep 0.5
 for id in $(seq "$robots"); do
   $B/firmware/cairn-robot --config "$run/robot-$id.toml" --duration "$duration" 2>"$run/robot-$id.log" &
@@ -81,16 +83,18 @@ while kill -0 "$base" 2>/dev/null; do
   fi
 done
 wait "$base" || true
-for p in "${pids[@]:1}"; do kill -INT "$p" 2>/dev/null || true; done
+for p in "${pids[@]:2}"; do kill -INT "$p" 2>/dev/null || true; done  # the robots
 sleep 2
 echo
 echo "demo: robots' own view (last progress lines; full logs in $run/robot-N.log):"
 for id in $(seq "$robots"); do
-  grep "robot $id:" "$run/robot-$id.log" | tail -1 | sed 's/^\[[^]]*\] *info *//'
-  grep "robot $id explore:" "$run/robot-$id.log" | tail -1 | sed 's/^\[[^]]*\] *info *//'
+  { grep "robot $id:" "$run/robot-$id.log" || true; } | tail -1 | sed 's/^\[[^]]*\] *info *//'
+  { grep "robot $id explore:" "$run/robot-$id.log" || true; } | tail -1 | sed 's/^\[[^]]*\] *info *//'
 done
-grep "explore:" "$run/base.out" | tail -1
+{ grep "explore:" "$run/base.out" || true; } | tail -1
+[ -f "$run/reset.log" ] && echo "demo: $(cat "$run/reset.log")"
 echo
 echo "demo: the base's map at exit ($run/map: map.png with trajectories and landmark ellipses, map.pgm + map.yaml for map_server, landmarks.json):"
-$B/tools/map_quality/cairn-map-quality --map "$run/map/map.yaml" --world "$world" | sed 's/^/  /'
+$B/tools/map_quality/cairn-map-quality --map "$run/map/map.yaml" --world "$world" | sed 's/^/  /' ||
+  echo "demo: no map was written (see $run/base.err)"
 echo "demo: done (ground truth in $run/truth.txt)"

@@ -112,6 +112,8 @@ TEST(EstopReset, ARobotThatStaysLatchedIsReportedUnconfirmedAfterResending) {
   EXPECT_EQ(r.outcome, EstopResetOutcome::kUnconfirmed) << r.message;
   EXPECT_FALSE(r.ok());
   EXPECT_GE(r.sent, 2);  // 3 s at one try per 0.5 s
+  // Every sample reached it (the last may still be on its way to the fake robot's take).
+  for (int k = 0; k < 100 && stubborn.resets() < r.sent; ++k) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   EXPECT_EQ(stubborn.resets(), r.sent);
   EXPECT_NE(r.message.find("still says stop reason 8"), std::string::npos) << r.message;
 }

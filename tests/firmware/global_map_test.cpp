@@ -91,6 +91,15 @@ TEST(GlobalMap, TilesBeyondTheConfiguredSizeAreCountedNotStored) {
   EXPECT_EQ(sparse.apply(tile(0, 0, a)), GlobalMap::Applied::kStored);
   EXPECT_EQ(sparse.apply(tile(5, 5, a)), GlobalMap::Applied::kOutOfRoom);
   EXPECT_EQ(sparse.apply(tile(1, 1, a)), GlobalMap::Applied::kStored);
+  // The widest keys a hostile tile can carry: 65 536 x 16 tiles of 4 096 cells is 2^32
+  // cells, which a 32-bit size_t wraps to 0 (armhf robots).
+  GlobalMap wild(small(4));
+  EXPECT_EQ(wild.apply(tile(-32768, 0, a)), GlobalMap::Applied::kStored);
+  EXPECT_EQ(wild.apply(tile(32767, 15, a)), GlobalMap::Applied::kOutOfRoom);
+  EXPECT_EQ(wild.apply(tile(-32768, 15, a)), GlobalMap::Applied::kOutOfRoom) << "16 tiles tall: more than 4";
+  ClassGrid g;
+  ASSERT_TRUE(wild.classify(&g));
+  EXPECT_EQ(g.geometry.cells(), kArea);
 }
 
 TEST(GlobalMap, ATileFromAnotherMapGeometryStartsOver) {

@@ -94,13 +94,20 @@ TEST(RobotExplorer, BidsTheDoorEveryPeriodFromItsGlobalPose) {
   EXPECT_EQ(ex.counters().bids, 2u);
 }
 
+// The room with a partition from the south wall up to y = 5.5 at x = 4: from the room's
+// west half the door is reached only through the 1.5 m gap north of it.
+std::uint8_t partitioned(double x, double y) {
+  if (x > 3.85 && x < 4.15 && y < 5.5 && y > 0.7) return 100;
+  return room(x, y);
+}
+
 TEST(RobotExplorer, ATaskIsPlannedAroundTheWallsAtOnceAndReplannedEachPeriod) {
   GlobalMap map(map_cfg(4));
-  fill(&map, 2, 2, room);
+  fill(&map, 2, 2, partitioned);
   RobotExplorer ex(explore_cfg(), 5, map_cfg(4).max_cells);
   msg::Bid bid;
   msg::TaskAssignment route;
-  const Pose2 at{2, 6, 0};  // north-west corner: the straight line to the door is clear, the plan must keep off walls
+  const Pose2 at{2.5, 2.5, 0};  // west of the partition: the straight line to the door crosses it
   (void)ex.step(map, at, 0, &bid, &route);
   ex.on_task(task(11, msg::TaskKind::kExplore, 7.15, 4.0));
   auto s = ex.step(map, at, 100 * kNanosPerMilli, &bid, &route);  // a new task is planned at once
@@ -111,22 +118,34 @@ TEST(RobotExplorer, ATaskIsPlannedAroundTheWallsAtOnceAndReplannedEachPeriod) {
   ASSERT_GE(route.n_path, 5);
   EXPECT_NEAR(route.target_x, 7.15, 0.2);
   EXPECT_NEAR(route.target_y, 4.0, 0.2);
-  Vec2 prev(2, 6);
+  Vec2 prev(at.x, at.y);
+  bool through_gap = false;
   for (std::size_t i = 0; i < route.n_path; ++i) {
     const Vec2 p(route.path_xy[2 * i], route.path_xy[2 * i + 1]);
-    EXPECT_EQ(room(p.x(), p.y()), 0) << "waypoint " << i << " at " << p.transpose() << " is not clear";
-    EXPECT_GT(p.x(), 1.2) << "kept off the west wall";
+    EXPECT_EQ(partitioned(p.x(), p.y()), 0) << "waypoint " << i << " at " << p.transpose() << " is not clear";
     EXPECT_LT((p - prev).norm(), 0.5) << "waypoints about 0.3 m apart";
+    through_gap = through_gap || (std::abs(p.x() - 4.0) < 0.5 && p.y() > 5.5);
     prev = p;
   }
+  EXPECT_TRUE(through_gap) << "the path must go round the partition's north end";
   EXPECT_FALSE(ex.step(map, at, kNanosPerSecond, &bid, &route).route) << "no replan before the period";
-  s = ex.step(map, Pose2{4, 5, 0}, 2 * kNanosPerSecond, &bid, &route);
-  EXPECT_TRUE(s.route) << "replanned from where the robot is now";
+  // Next period, from where the robot is now (east of the partition): straight to the door.
+  s = ex.step(map, Pose2{6, 2.5, 0}, 2 * kNanosPerSecond, &bid, &route);
+  ASSERT_TRUE(s.route);
   EXPECT_TRUE(s.bid);
+  ASSERT_GE(route.n_path, 1);
+  EXPECT_LT((Vec2(route.path_xy[0], route.path_xy[1]) - Vec2(6, 2.5)).norm(), 0.5) << "the replan starts where the robot is";
   EXPECT_EQ(ex.counters().plans, 2u);
   // The base says idle: nothing more to plan.
   ex.on_task(task(12, msg::TaskKind::kIdle, 0, 0));
   EXPECT_FALSE(ex.step(map, at, 4 * kNanosPerSecond, &bid, &route).route);
+  // A task that carries its own path is the base's to give: followed as given, not replanned.
+  msg::TaskAssignment with_path = task(13, msg::TaskKind::kGoto, 6, 6);
+  with_path.n_path = 1;
+  with_path.path_xy[0] = 5;
+  with_path.path_xy[1] = 6;
+  ex.on_task(with_path);
+  EXPECT_FALSE(ex.step(map, at, 6 * kNanosPerSecond, &bid, &route).route);
 }
 
 TEST(RobotExplorer, WithoutAMapItBidsNothingAndStandsOnATask) {

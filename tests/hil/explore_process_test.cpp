@@ -90,6 +90,7 @@ TEST(ExploreProcess, OneRobotExploresTheOfficeThroughBidsAndTasksOverDds) {
   const long long assigned = last_count(base_out, "assigned "), taken = last_count(base_out, "explore: exploring; bids ");
   std::printf("robot: bids %lld, plans %lld (failed %lld); base: bids taken %lld, explore tasks assigned %lld\n", bids, plans,
               plan_failures, taken, assigned);
+  ASSERT_GE(plan_failures, 0) << "no explore counters line from the robot\n" << robot_out;
   EXPECT_GE(bids, 10) << robot_out;
   EXPECT_GE(taken, 10) << base_out;
   EXPECT_GE(assigned, 2) << base_out;
