@@ -15,7 +15,20 @@ const char* presence_name(Presence p) {
 }
 
 void Fleet::on_status(std::uint16_t id, const std::string& name, const std::string& mode, std::uint32_t seq, Nanos now) {
-  auto [it, inserted] = robots_.try_emplace(id);
+  auto it = robots_.find(id);
+  const bool inserted = it == robots_.end();
+  if (inserted) {
+    const bool listed = admission_.listed.contains(id);
+    if (!listed && unlisted_ >= admission_.max_unlisted) {
+      if (refused_++ == 0) {
+        emit("robot " + std::to_string(id) + " refused: not in the configured fleet and " +
+             std::to_string(admission_.max_unlisted) + " unlisted robot(s) already shown (further ones are counted)");
+      }
+      return;
+    }
+    unlisted_ += listed ? 0 : 1;
+    it = robots_.try_emplace(id).first;
+  }
   RobotEntry& r = it->second;
   if (inserted) {
     r.id = id;

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 
 #include "common/clock.hpp"
@@ -27,12 +28,21 @@ struct RobotEntry {
   std::uint32_t joins = 0;
 };
 
+/// Who gets a row: every listed robot; robots not listed only while fewer than
+/// `max_unlisted` of them have one. The rest are counted, not shown: a hostile or broken
+/// publisher cycling through ids cannot grow the table (or flood the console) without bound.
+struct FleetAdmission {
+  std::set<std::uint16_t> listed;  // the configured fleet ([[robot]] ids)
+  std::size_t max_unlisted = 8;    // [unknown_robot] max_robots
+};
+
 class Fleet {
  public:
   /// Called with a one-line description of each change (joined, lost, left, stale, back).
   using EventSink = std::function<void(const std::string&)>;
 
-  Fleet(Nanos stale_after, EventSink sink) : stale_after_(stale_after), sink_(std::move(sink)) {}
+  Fleet(Nanos stale_after, EventSink sink, FleetAdmission admission = {})
+      : stale_after_(stale_after), sink_(std::move(sink)), admission_(std::move(admission)) {}
 
   void on_status(std::uint16_t id, const std::string& name, const std::string& mode, std::uint32_t seq, Nanos now);
   /// The DDS layer saw the robot's writer vanish (liveliness lost) or dispose (clean shutdown).
@@ -45,6 +55,8 @@ class Fleet {
   std::string table(Nanos now) const;
   const std::map<std::uint16_t, RobotEntry>& robots() const { return robots_; }
   std::size_t alive_count() const;
+  /// Statuses not shown because their robot is not listed and the unlisted rows are full.
+  std::uint64_t refused() const { return refused_; }
 
  private:
   void emit(const std::string& s) {
@@ -52,7 +64,10 @@ class Fleet {
   }
   Nanos stale_after_;
   EventSink sink_;
+  FleetAdmission admission_;
   std::map<std::uint16_t, RobotEntry> robots_;
+  std::size_t unlisted_ = 0;  // rows of robots not listed
+  std::uint64_t refused_ = 0;
 };
 
 }  // namespace cairn::base

@@ -69,10 +69,16 @@ int run(const std::string& config_path, double duration_s) {
   auto& clock = MonotonicClock::instance();
   const Nanos start = clock.now();
   const bool tty = isatty(STDOUT_FILENO) != 0;
-  base::Fleet fleet(cfg.stale_after, [&](const std::string& event) {
-    std::printf("[%8.3f] fleet: %s\n", nanos_to_seconds(clock.now() - start), event.c_str());
-    std::fflush(stdout);
-  });
+  base::FleetAdmission admission;
+  for (const auto& [id, prior] : cfg.fusion.robots) admission.listed.insert(id);
+  admission.max_unlisted = cfg.fusion.max_unknown_robots;
+  base::Fleet fleet(
+      cfg.stale_after,
+      [&](const std::string& event) {
+        std::printf("[%8.3f] fleet: %s\n", nanos_to_seconds(clock.now() - start), event.c_str());
+        std::fflush(stdout);
+      },
+      admission);
 
   dds::Topic<cairn_RobotStatus> status_topic(pp);
   // The reader requests no particular lease: any robot's offered lease is accepted
@@ -126,8 +132,8 @@ int run(const std::string& config_path, double duration_s) {
     if (now >= next_table) {
       next_table += cfg.table_period;
       if (tty) std::printf("\033[2J\033[H");
-      std::printf("[%8.3f] fleet: %zu alive\n%s", nanos_to_seconds(now - start), fleet.alive_count(),
-                  fleet.table(now).c_str());
+      std::printf("[%8.3f] fleet: %zu alive, %llu status(es) of unlisted robots refused\n%s", nanos_to_seconds(now - start),
+                  fleet.alive_count(), static_cast<unsigned long long>(fleet.refused()), fleet.table(now).c_str());
       if (fusion) std::printf("[%8.3f] %s\n", nanos_to_seconds(now - start), fusion->summary().c_str());
       if (map) std::printf("[%8.3f] %s\n", nanos_to_seconds(now - start), map->summary().c_str());
       if (explore) std::printf("[%8.3f] %s\n", nanos_to_seconds(now - start), explore->summary().c_str());
