@@ -89,6 +89,8 @@ class Fusion {
   const ccml::CcmlFilter& filter() const { return filter_; }
   const FusionCounters& counters() const { return counters_; }
   bool localized(std::uint16_t robot) const;
+  /// Every number of the joint state (mean and covariance) is finite.
+  bool finite() const { return filter_.mean().allFinite() && filter_.covariance().allFinite(); }
 
   /// The message checks alone (no state change): the DDS node runs them before logging.
   std::optional<Reject> check(const msg::OdometryIncrement& m) const { return base::check(m, config_.limits); }

@@ -86,11 +86,11 @@ void FusionNode::poll(Nanos now) {
 
 std::string FusionNode::summary() const {
   const FusionCounters& c = fusion_.counters();
-  char buf[512];
+  char buf[1024];
   std::snprintf(buf, sizeof buf,
                 "fusion: odometry %llu applied (%llu dup, %llu gaps), features %llu applied (%llu dup, %llu late, %llu stale), "
-                "observations %llu used / %llu new, landmarks pruned %llu, robots %zu (%llu localised, %llu restarted), map %zu; "
-                "rejected: %s",
+                "observations %llu used / %llu new, landmarks pruned %llu, robots %zu (%llu localised, %llu restarted), map %zu, "
+                "state %s; rejected: %s",
                 static_cast<unsigned long long>(c.odometry_applied), static_cast<unsigned long long>(c.odometry_duplicates),
                 static_cast<unsigned long long>(c.odometry_gaps), static_cast<unsigned long long>(c.feature_messages_applied),
                 static_cast<unsigned long long>(c.feature_duplicates), static_cast<unsigned long long>(c.feature_late),
@@ -98,7 +98,7 @@ std::string FusionNode::summary() const {
                 static_cast<unsigned long long>(c.observations_new_features), static_cast<unsigned long long>(c.landmarks_pruned),
                 fusion_.robots().size(), static_cast<unsigned long long>(c.robots_localized),
                 static_cast<unsigned long long>(c.robots_restarted), fusion_.filter().feature_count(),
-                c.rejected.summary().c_str());
+                fusion_.finite() ? "finite" : "NOT FINITE", c.rejected.summary().c_str());
   const PersistCounters& p = store_.counters();
   char pbuf[384];
   std::snprintf(pbuf, sizeof pbuf,
