@@ -9,12 +9,12 @@
 
 #include "basestation/fusion.hpp"
 #include "basestation/state_store.hpp"
-#include "tests/support/fleet_scenario.hpp"
+#include "tools/fleet_stream/fleet_scenario.hpp"
 
 namespace cairn::base {
 namespace {
 
-using testing::FleetScenario;
+using fleet_stream::FleetScenario;
 
 /// Robots 1..known listed with their true start; the rest listed without a start pose.
 FusionConfig config_for(const FleetScenario& s, int known = 99) {
@@ -29,7 +29,7 @@ FusionConfig config_for(const FleetScenario& s, int known = 99) {
   return c;
 }
 
-void feed(Fusion* f, const testing::FleetMessage& m) {
+void feed(Fusion* f, const fleet_stream::FleetMessage& m) {
   std::visit([&](const auto& x) {
     if constexpr (std::is_same_v<std::decay_t<decltype(x)>, msg::OdometryIncrement>) {
       f->on_odometry(x);
@@ -59,7 +59,7 @@ msg::FeatureObservations robot_marker(const FleetScenario& s, std::int32_t marke
 // ---- (a) marker ids
 
 TEST(FusionRobustness, RobotMarkerOutsideUint16IsRejectedNotThrown) {
-  const FleetScenario s = testing::make_fleet_scenario(2, 40);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(2, 40);
   Fusion f(config_for(s));
   for (const auto& m : s.messages) feed(&f, m);
   ASSERT_TRUE(f.localized(2));
@@ -73,7 +73,7 @@ TEST(FusionRobustness, RobotMarkerOutsideUint16IsRejectedNotThrown) {
 }
 
 TEST(FusionRobustness, ALoggedMessageThatThrowsIsSkippedOnReplay) {
-  const FleetScenario s = testing::make_fleet_scenario(2, 40);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(2, 40);
   const auto dir = std::filesystem::temp_directory_path() / ("cairn-replay-throw-" + std::to_string(getpid()));
   std::filesystem::remove_all(dir);
   {
@@ -99,7 +99,7 @@ TEST(FusionRobustness, ALoggedMessageThatThrowsIsSkippedOnReplay) {
 // ---- (b) magnitudes, covariance shape, χ² gate, non-finite state
 
 TEST(FusionRobustness, HugeDeltaAndIndefiniteCovarianceAreRejectedAndStateUnchanged) {
-  const FleetScenario s = testing::make_fleet_scenario(1, 20);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(1, 20);
   Fusion f(config_for(s));
   for (const auto& m : s.messages) feed(&f, m);
   const Eigen::VectorXd x0 = f.filter().mean();
@@ -122,7 +122,7 @@ TEST(FusionRobustness, HugeDeltaAndIndefiniteCovarianceAreRejectedAndStateUnchan
 }
 
 TEST(FusionRobustness, ObservationFailingTheInnovationGateIsNotApplied) {
-  const FleetScenario s = testing::make_fleet_scenario(2, 40);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(2, 40);
   Fusion f(config_for(s));
   for (const auto& m : s.messages) feed(&f, m);
   const Eigen::VectorXd x0 = f.filter().mean();
@@ -137,7 +137,7 @@ TEST(FusionRobustness, ObservationFailingTheInnovationGateIsNotApplied) {
 // ---- (c) boot epochs and seq
 
 TEST(FusionRobustness, RebootedRobotIsHeardFromItsNewEpoch) {
-  const FleetScenario s = testing::make_fleet_scenario(1, 100);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(1, 100);
   FusionConfig c = config_for(s);
   Fusion f(c);
   const std::size_t half = s.messages.size() / 2;
@@ -172,7 +172,7 @@ TEST(FusionRobustness, RebootedRobotIsHeardFromItsNewEpoch) {
 }
 
 TEST(FusionRobustness, OneHugeSeqDoesNotSilenceARobot) {
-  const FleetScenario s = testing::make_fleet_scenario(1, 40);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(1, 40);
   Fusion f(config_for(s));
   const std::size_t half = s.messages.size() / 2;
   for (std::size_t k = 0; k < half; ++k) feed(&f, s.messages[k]);
@@ -192,7 +192,7 @@ TEST(FusionRobustness, OneHugeSeqDoesNotSilenceARobot) {
 // ---- (d) bounded memory
 
 TEST(FusionRobustness, RobotsOutsideTheFleetAreRefusedOrCapped) {
-  const FleetScenario s = testing::make_fleet_scenario(1, 10);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(1, 10);
   FusionConfig c = config_for(s);
   Fusion closed(c);
   c.allow_unknown_robots = true;
@@ -218,7 +218,7 @@ TEST(FusionRobustness, RobotsOutsideTheFleetAreRefusedOrCapped) {
 }
 
 TEST(FusionRobustness, LandmarksAreCappedAndOneOffClutterIsPruned) {
-  const FleetScenario s = testing::make_fleet_scenario(1, 200);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(1, 200);
   FusionConfig c = config_for(s);
   c.max_landmarks = 3;
   Fusion capped(c);
@@ -245,7 +245,7 @@ TEST(FusionRobustness, LandmarksAreCappedAndOneOffClutterIsPruned) {
 }
 
 TEST(FusionRobustness, OneRobotsWaitingFeaturesDoNotBlockAnother) {
-  const FleetScenario s = testing::make_fleet_scenario(2, 60);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(2, 60);
   Fusion f(config_for(s));
   // Robot 2's features arrive, but none of its odometry: they wait in its own bounded queue.
   for (const auto& m : s.messages) {
@@ -262,7 +262,7 @@ TEST(FusionRobustness, OneRobotsWaitingFeaturesDoNotBlockAnother) {
 // ---- (e) the map frame
 
 TEST(FusionRobustness, AnUnknownRobotSpeakingFirstDoesNotDefineTheFrame) {
-  const FleetScenario s = testing::make_fleet_scenario(2, 100);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(2, 100);
   FusionConfig c = config_for(s, 1);
   c.robots.erase(2);  // robot 2 is not in the configured fleet
   c.allow_unknown_robots = true;
@@ -324,7 +324,7 @@ TEST(FusionRobustness, RelocationRefusesASymmetricLayout) {
 }
 
 TEST(FusionRobustness, RelocationRefusesAnIncompleteSearch) {
-  const FleetScenario s = testing::make_fleet_scenario(2, 600);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(2, 600);
   FusionConfig c = config_for(s, 1);
   c.jcbb.max_nodes = 3;  // far too small to finish any search
   Fusion f(c);

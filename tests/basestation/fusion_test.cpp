@@ -9,12 +9,12 @@
 #include <sstream>
 
 #include "basestation/state_store.hpp"
-#include "tests/support/fleet_scenario.hpp"
+#include "tools/fleet_stream/fleet_scenario.hpp"
 
 namespace cairn::base {
 namespace {
 
-using testing::FleetScenario;
+using fleet_stream::FleetScenario;
 
 FusionConfig config_for(const FleetScenario& s, bool know_all = true) {
   FusionConfig c;
@@ -30,7 +30,7 @@ FusionConfig config_for(const FleetScenario& s, bool know_all = true) {
   return c;
 }
 
-void feed(Fusion* f, const testing::FleetMessage& m) {
+void feed(Fusion* f, const fleet_stream::FleetMessage& m) {
   std::visit([&](const auto& msg) {
     if constexpr (std::is_same_v<std::decay_t<decltype(msg)>, msg::OdometryIncrement>) {
       f->on_odometry(msg);
@@ -46,7 +46,7 @@ double position_error(const Fusion& f, const FleetScenario& s, int r) {
 }
 
 TEST(Fusion, ThreeRobotsStayLocalisedAndMapThePoles) {
-  const FleetScenario s = testing::make_fleet_scenario(3, 600);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(3, 600);
   Fusion f(config_for(s));
   for (const auto& m : s.messages) feed(&f, m);
   for (int r = 0; r < 3; ++r) EXPECT_LT(position_error(f, s, r), 0.15) << "robot " << r + 1;
@@ -68,7 +68,7 @@ TEST(Fusion, ThreeRobotsStayLocalisedAndMapThePoles) {
 }
 
 TEST(Fusion, RobotWithUnknownStartIsLocalisedByRelocation) {
-  const FleetScenario s = testing::make_fleet_scenario(2, 600);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(2, 600);
   Fusion f(config_for(s, /*know_all=*/false));  // robot 2 has no prior
   std::size_t k = 0;
   for (; k < s.messages.size() / 3; ++k) {  // robot 1 maps alone first
@@ -81,7 +81,7 @@ TEST(Fusion, RobotWithUnknownStartIsLocalisedByRelocation) {
 }
 
 TEST(Fusion, BadDuplicateLateAndMissingMessagesAreCountedNotFatal) {
-  const FleetScenario s = testing::make_fleet_scenario(1, 200);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(1, 200);
   Fusion f(config_for(s));
   std::vector<msg::OdometryIncrement> odo;
   std::vector<msg::FeatureObservations> feats;
@@ -132,7 +132,7 @@ TEST(Fusion, BadDuplicateLateAndMissingMessagesAreCountedNotFatal) {
 TEST(Fusion, LateFeaturesGiveTheSameMapAsInOrderOnes) {
   // Deliver every feature message only after the next two odometry increments: the
   // re-expressed observations must give (nearly) the same estimate as in-order delivery.
-  const FleetScenario s = testing::make_fleet_scenario(2, 400);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(2, 400);
   Fusion in_order(config_for(s)), late(config_for(s));
   std::deque<msg::FeatureObservations> held;
   int odo_since = 0;
@@ -161,7 +161,7 @@ TEST(Fusion, LateFeaturesGiveTheSameMapAsInOrderOnes) {
 }
 
 TEST(Fusion, SnapshotRestoresTheExactState) {
-  const FleetScenario s = testing::make_fleet_scenario(2, 300);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(2, 300);
   Fusion a(config_for(s)), b(config_for(s));
   const std::size_t half = s.messages.size() / 2;
   for (std::size_t k = 0; k < half; ++k) feed(&a, s.messages[k]);
@@ -179,7 +179,7 @@ TEST(Fusion, SnapshotRestoresTheExactState) {
 // The covariance form is configuration, not state: a snapshot loaded into a base configured
 // for the Joseph form keeps using it (and one configured for the default keeps the default).
 TEST(Fusion, SnapshotKeepsTheConfiguredCovarianceForm) {
-  const FleetScenario s = testing::make_fleet_scenario(2, 100);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(2, 100);
   FusionConfig joseph = config_for(s);
   joseph.covariance_update = ccml::CovarianceUpdate::kJoseph;
   Fusion a(config_for(s)), b(joseph);
@@ -193,7 +193,7 @@ TEST(Fusion, SnapshotKeepsTheConfiguredCovarianceForm) {
 }
 
 TEST(StateStore, CrashAndRestoreLosesNothing) {
-  const FleetScenario s = testing::make_fleet_scenario(2, 300);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(2, 300);
   const auto dir = std::filesystem::temp_directory_path() / ("cairn-store-" + std::to_string(getpid()));
   std::filesystem::remove_all(dir);
   Fusion reference(config_for(s));
@@ -223,7 +223,7 @@ TEST(StateStore, CrashAndRestoreLosesNothing) {
 }
 
 TEST(StateStore, TornLastRecordIsDetectedAndIgnored) {
-  const FleetScenario s = testing::make_fleet_scenario(1, 50);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(1, 50);
   const auto dir = std::filesystem::temp_directory_path() / ("cairn-torn-" + std::to_string(getpid()));
   std::filesystem::remove_all(dir);
   Fusion expect(config_for(s));

@@ -23,13 +23,13 @@
 
 #include "basestation/fusion.hpp"
 #include "basestation/state_store.hpp"
-#include "tests/support/fleet_scenario.hpp"
+#include "tools/fleet_stream/fleet_scenario.hpp"
 
 namespace cairn::base {
 namespace {
 
 namespace fs = std::filesystem;
-using testing::FleetScenario;
+using fleet_stream::FleetScenario;
 
 constexpr Nanos kStep = 10 * kNanosPerMilli;  // the stream's messages are 10 ms apart for the store's clock
 
@@ -45,7 +45,7 @@ FusionConfig config_for(const FleetScenario& s) {
   return c;
 }
 
-void feed(Fusion* f, const testing::FleetMessage& m) {
+void feed(Fusion* f, const fleet_stream::FleetMessage& m) {
   std::visit([&](const auto& x) {
     if constexpr (std::is_same_v<std::decay_t<decltype(x)>, msg::OdometryIncrement>) {
       f->on_odometry(x);
@@ -56,7 +56,7 @@ void feed(Fusion* f, const testing::FleetMessage& m) {
 }
 
 /// What the node does with one message: check, log (write-ahead), apply.
-void accept(Fusion* f, StateStore* store, const testing::FleetMessage& m, Nanos now) {
+void accept(Fusion* f, StateStore* store, const fleet_stream::FleetMessage& m, Nanos now) {
   std::visit([&](const auto& x) {
     if (f->check(x)) return;
     store->append(x, now);
@@ -142,7 +142,7 @@ void run_with_snapshots(const FleetScenario& s, const fs::path& dir, std::size_t
 // ---- corrupt snapshot → the previous one and the logs after it
 
 TEST(StateStore, CorruptNewestSnapshotFallsBackToThePreviousOneAndItsLogs) {
-  const FleetScenario s = testing::make_fleet_scenario(2, 200);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(2, 200);
   const std::size_t n = s.messages.size();
   const Fusion expect = reference(s, n);
   for (const bool truncate : {false, true}) {
@@ -180,7 +180,7 @@ TEST(StateStore, CorruptNewestSnapshotFallsBackToThePreviousOneAndItsLogs) {
 }
 
 TEST(StateStore, NoUsableSnapshotRefusesToStartAndChangesNothing) {
-  const FleetScenario s = testing::make_fleet_scenario(1, 60);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(1, 60);
   const fs::path dir = fresh_dir("nosnap");
   run_with_snapshots(s, dir, s.messages.size(), {20});
   flip_byte(dir / "snapshot-1.bin", 40);
@@ -201,7 +201,7 @@ TEST(StateStore, NoUsableSnapshotRefusesToStartAndChangesNothing) {
 // ---- torn / corrupt log tail → ignored and counted
 
 TEST(StateStore, TornOrCorruptLogTailIsIgnoredAndCounted) {
-  const FleetScenario s = testing::make_fleet_scenario(1, 50);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(1, 50);
   const Fusion expect = reference(s, 19);
   enum Damage { kCut, kFlip, kGarbage };
   for (const Damage d : {kCut, kFlip, kGarbage}) {
@@ -247,7 +247,7 @@ TEST(StateStore, TornOrCorruptLogTailIsIgnoredAndCounted) {
 // `end_first`: the disk fills just after the log's end record (a snapshot attempt that then
 // fails): the log must lose its end record too, or a fallback would replay across the gap.
 void full_disk(bool end_first) {
-  const FleetScenario s = testing::make_fleet_scenario(2, 200);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(2, 200);
   const std::size_t n = s.messages.size(), half = n / 2, room_again = half + 150;
   const fs::path dir = fresh_dir("fulldisk");
   Fusion f(config_for(s));
@@ -336,7 +336,7 @@ TEST(StateStore, FullDiskIsCountedGoesOnInMemoryAndLeavesTheDiskRestorable) { fu
 TEST(StateStore, FullDiskJustAfterALogsEndRecordStillLeavesTheDiskRestorable) { full_disk(true); }
 
 TEST(StateStore, AFailedSnapshotInsideRestoreKeepsTheGoodOneAndTheLog) {
-  const FleetScenario s = testing::make_fleet_scenario(2, 100);
+  const FleetScenario s = fleet_stream::make_fleet_scenario(2, 100);
   const std::size_t n = s.messages.size();
   const fs::path dir = fresh_dir("restorefull");
   run_with_snapshots(s, dir, n, {n / 2});
@@ -446,7 +446,7 @@ ChildResult run_child(const FleetScenario& s, const fs::path& dir, std::size_t s
 }
 
 TEST(StateStore, KilledTenTimesAtRandomPointsEndsBitIdenticalToAnUninterruptedRun) {
-  const FleetScenario s = testing::make_fleet_scenario(3, 600);  // 1800 odometry + 900 feature messages
+  const FleetScenario s = fleet_stream::make_fleet_scenario(3, 600);  // 1800 odometry + 900 feature messages
   const std::size_t n = s.messages.size();
   const fs::path dir = fresh_dir("kill");
   const StateStore::IoOp ops[] = {StateStore::IoOp::kLogWrite, StateStore::IoOp::kLogSync, StateStore::IoOp::kSnapshotWrite,

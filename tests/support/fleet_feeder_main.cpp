@@ -1,4 +1,4 @@
-// cairn-test-feeder: publishes a deterministic fleet stream (tests/support/fleet_scenario.hpp)
+// cairn-test-feeder: publishes a deterministic fleet stream (tools/fleet_stream/fleet_scenario.hpp)
 // over DDS, as robots would: OdometryIncrement and FeatureObservations, reliable and
 // transient-local with a deep history, then keeps the history available until killed.
 #include <CLI/CLI.hpp>
@@ -7,7 +7,7 @@
 
 #include "common/dds/topics.hpp"
 #include "common/program.hpp"
-#include "tests/support/fleet_scenario.hpp"
+#include "tools/fleet_stream/fleet_scenario.hpp"
 
 using namespace cairn;
 
@@ -22,7 +22,7 @@ int main(int argc, char** argv) {
   app.add_option("--depth", depth, "history depth per robot");
   CLI11_PARSE(app, argc, argv);
   install_shutdown_handlers();
-  const testing::FleetScenario s = testing::make_fleet_scenario(robots, steps);
+  const fleet_stream::FleetScenario s = fleet_stream::make_fleet_scenario(robots, steps);
   dds::Participant pp(dds::loopback_profile(static_cast<std::uint32_t>(domain)));
   dds::Topic<cairn_OdometryIncrement> ot(pp);
   dds::Topic<cairn_FeatureObservations> ft(pp);

@@ -1,4 +1,4 @@
-// Test support: a deterministic stream of OdometryIncrement and FeatureObservations
+// A deterministic stream of OdometryIncrement and FeatureObservations
 // messages from robots driving circles among retroreflective poles, observing the
 // poles and each other (range-bearing with noise), as a robot fleet would publish.
 #pragma once
@@ -11,7 +11,7 @@
 #include "common/messages.hpp"
 #include "common/se2.hpp"
 
-namespace cairn::testing {
+namespace cairn::fleet_stream {
 
 using FleetMessage = std::variant<msg::OdometryIncrement, msg::FeatureObservations>;
 
@@ -81,4 +81,4 @@ inline FleetScenario make_fleet_scenario(int robots, int steps, std::uint64_t se
   return s;
 }
 
-}  // namespace cairn::testing
+}  // namespace cairn::fleet_stream
