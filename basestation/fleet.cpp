@@ -18,15 +18,15 @@ void Fleet::on_status(std::uint16_t id, const std::string& name, const std::stri
   auto it = robots_.find(id);
   const bool inserted = it == robots_.end();
   if (inserted) {
-    const bool listed = admission_.listed.contains(id);
-    if (!listed && unlisted_ >= admission_.max_unlisted) {
+    const bool listed = privileged(id);
+    if (!listed && unlisted_.size() >= admission_.max_unlisted && !evict_gone_unlisted()) {
       if (refused_++ == 0) {
         emit("robot " + std::to_string(id) + " refused: not in the configured fleet and " +
              std::to_string(admission_.max_unlisted) + " unlisted robot(s) already shown (further ones are counted)");
       }
       return;
     }
-    unlisted_ += listed ? 0 : 1;
+    if (!listed) unlisted_.insert(id);
     it = robots_.try_emplace(id).first;
   }
   RobotEntry& r = it->second;
@@ -56,6 +56,19 @@ void Fleet::on_lost(std::uint16_t id, Nanos now) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.1f", nanos_to_seconds(now - it->second.last_seen));
   emit("robot " + std::to_string(id) + " lost (liveliness expired, last heard " + buf + " s ago)");
+}
+
+bool Fleet::evict_gone_unlisted() {
+  auto oldest = unlisted_.end();
+  for (auto it = unlisted_.begin(); it != unlisted_.end(); ++it) {
+    const RobotEntry& r = robots_.at(*it);
+    if (r.presence != Presence::kLost && r.presence != Presence::kLeft) continue;
+    if (oldest == unlisted_.end() || r.last_seen < robots_.at(*oldest).last_seen) oldest = it;
+  }
+  if (oldest == unlisted_.end()) return false;
+  robots_.erase(*oldest);
+  unlisted_.erase(oldest);
+  return true;
 }
 
 void Fleet::on_left(std::uint16_t id, Nanos now) {

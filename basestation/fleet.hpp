@@ -28,12 +28,16 @@ struct RobotEntry {
   std::uint32_t joins = 0;
 };
 
-/// Who gets a row: every listed robot; robots not listed only while fewer than
-/// `max_unlisted` of them have one. The rest are counted, not shown: a hostile or broken
-/// publisher cycling through ids cannot grow the table (or flood the console) without bound.
+/// Who gets a row: every listed robot and every robot the fusion has admitted (its own cap
+/// bounds those); other robots only while fewer than `max_unlisted` of them hold a row. The
+/// rest are counted, not shown: a hostile or broken publisher cycling through ids cannot
+/// grow the table (or flood the console) without bound, nor take an admitted robot's row.
+/// When the unlisted rows are full, the row of the unlisted robot lost or gone longest ago
+/// makes room for a new one.
 struct FleetAdmission {
   std::set<std::uint16_t> listed;  // the configured fleet ([[robot]] ids)
   std::size_t max_unlisted = 8;    // [unknown_robot] max_robots
+  std::function<bool(std::uint16_t)> admitted;  // the fusion's admission (may be empty)
 };
 
 class Fleet {
@@ -41,7 +45,7 @@ class Fleet {
   /// Called with a one-line description of each change (joined, lost, left, stale, back).
   using EventSink = std::function<void(const std::string&)>;
 
-  Fleet(Nanos stale_after, EventSink sink, FleetAdmission admission = {})
+  Fleet(Nanos stale_after, EventSink sink, FleetAdmission admission)
       : stale_after_(stale_after), sink_(std::move(sink)), admission_(std::move(admission)) {}
 
   void on_status(std::uint16_t id, const std::string& name, const std::string& mode, std::uint32_t seq, Nanos now);
@@ -65,8 +69,10 @@ class Fleet {
   Nanos stale_after_;
   EventSink sink_;
   FleetAdmission admission_;
+  bool privileged(std::uint16_t id) const { return admission_.listed.contains(id) || (admission_.admitted && admission_.admitted(id)); }
+  bool evict_gone_unlisted();  // frees the row of the unlisted robot lost or gone longest ago
   std::map<std::uint16_t, RobotEntry> robots_;
-  std::size_t unlisted_ = 0;  // rows of robots not listed
+  std::set<std::uint16_t> unlisted_;  // rows held under the max_unlisted cap
   std::uint64_t refused_ = 0;
 };
 

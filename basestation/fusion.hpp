@@ -89,6 +89,8 @@ class Fusion {
   const ccml::CcmlFilter& filter() const { return filter_; }
   const FusionCounters& counters() const { return counters_; }
   bool localized(std::uint16_t robot) const;
+  /// The robot passed admission (listed, or an unknown robot within the cap).
+  bool admitted(std::uint16_t robot) const { return tracks_.contains(robot); }
   /// Every number of the joint state (mean and covariance) is finite.
   bool finite() const { return filter_.mean().allFinite() && filter_.covariance().allFinite(); }
 

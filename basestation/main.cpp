@@ -69,9 +69,11 @@ int run(const std::string& config_path, double duration_s) {
   auto& clock = MonotonicClock::instance();
   const Nanos start = clock.now();
   const bool tty = isatty(STDOUT_FILENO) != 0;
+  std::unique_ptr<base::FusionNode> fusion;
   base::FleetAdmission admission;
   for (const auto& [id, prior] : cfg.fusion.robots) admission.listed.insert(id);
   admission.max_unlisted = cfg.fusion.max_unknown_robots;
+  admission.admitted = [&fusion](std::uint16_t id) { return fusion && fusion->fusion().admitted(id); };
   base::Fleet fleet(
       cfg.stale_after,
       [&](const std::string& event) {
@@ -85,7 +87,6 @@ int run(const std::string& config_path, double duration_s) {
   // and enforced, and a robot whose lease expires shows up as "no writers".
   dds::Reader<cairn_RobotStatus> status_reader(pp, status_topic, dds::state_qos(1));
 
-  std::unique_ptr<base::FusionNode> fusion;
   if (cfg.fusion_enabled) {
     fusion = std::make_unique<base::FusionNode>(pp, cfg);
     CAIRN_LOG_INFO("base", "fusion: {}", fusion->restore());

@@ -50,7 +50,7 @@ TEST(ExploreNode, BidsFromLocalisedRobotsComeBackAsCoordinatedTasks) {
   Fusion fusion(two_robots());
   localise(&fusion, 1);
   localise(&fusion, 2);
-  Fleet fleet(3 * kNanosPerSecond, nullptr);
+  Fleet fleet(3 * kNanosPerSecond, nullptr, FleetAdmission{{1, 2}, 8, {}});
   auto& clock = MonotonicClock::instance();
   for (std::uint16_t id : {std::uint16_t{1}, std::uint16_t{2}, std::uint16_t{9}}) fleet.on_status(id, "r", "running", 1, clock.now());
   explore::AllocatorConfig cfg;
