@@ -29,15 +29,7 @@ FusionConfig config_for(const FleetScenario& s, int known = 99) {
   return c;
 }
 
-void feed(Fusion* f, const fleet_stream::FleetMessage& m) {
-  std::visit([&](const auto& x) {
-    if constexpr (std::is_same_v<std::decay_t<decltype(x)>, msg::OdometryIncrement>) {
-      f->on_odometry(x);
-    } else {
-      f->on_features(x);
-    }
-  }, m);
-}
+using fleet_stream::feed;
 
 template <typename M>
 M last_of(const FleetScenario& s, std::uint16_t robot) {

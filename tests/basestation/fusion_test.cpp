@@ -30,15 +30,7 @@ FusionConfig config_for(const FleetScenario& s, bool know_all = true) {
   return c;
 }
 
-void feed(Fusion* f, const fleet_stream::FleetMessage& m) {
-  std::visit([&](const auto& msg) {
-    if constexpr (std::is_same_v<std::decay_t<decltype(msg)>, msg::OdometryIncrement>) {
-      f->on_odometry(msg);
-    } else {
-      f->on_features(msg);
-    }
-  }, m);
-}
+using fleet_stream::feed;
 
 double position_error(const Fusion& f, const FleetScenario& s, int r) {
   const Pose2 est = f.filter().robot_pose(static_cast<ccml::RobotId>(r + 1));

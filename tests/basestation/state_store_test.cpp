@@ -45,15 +45,7 @@ FusionConfig config_for(const FleetScenario& s) {
   return c;
 }
 
-void feed(Fusion* f, const fleet_stream::FleetMessage& m) {
-  std::visit([&](const auto& x) {
-    if constexpr (std::is_same_v<std::decay_t<decltype(x)>, msg::OdometryIncrement>) {
-      f->on_odometry(x);
-    } else {
-      f->on_features(x);
-    }
-  }, m);
-}
+using fleet_stream::feed;
 
 /// What the node does with one message: check, log (write-ahead), apply.
 void accept(Fusion* f, StateStore* store, const fleet_stream::FleetMessage& m, Nanos now) {

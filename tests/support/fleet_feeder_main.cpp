@@ -3,11 +3,8 @@
 // transient-local with a deep history, then keeps the history available until killed.
 #include <CLI/CLI.hpp>
 #include <cstdio>
-#include <memory>
-
-#include "common/dds/topics.hpp"
 #include "common/program.hpp"
-#include "tools/fleet_stream/fleet_scenario.hpp"
+#include "tools/fleet_stream/fleet_publisher.hpp"
 
 using namespace cairn;
 
@@ -24,38 +21,25 @@ int main(int argc, char** argv) {
   install_shutdown_handlers();
   const fleet_stream::FleetScenario s = fleet_stream::make_fleet_scenario(robots, steps);
   dds::Participant pp(dds::loopback_profile(static_cast<std::uint32_t>(domain)));
-  dds::Topic<cairn_OdometryIncrement> ot(pp);
-  dds::Topic<cairn_FeatureObservations> ft(pp);
-  dds::Writer<cairn_OdometryIncrement> ow(pp, ot, dds::latched_qos(depth));
-  dds::Writer<cairn_FeatureObservations> fw(pp, ft, dds::latched_qos(depth));
-  std::size_t n_odo = 0, n_feat = 0;
+  fleet_stream::FleetPublisher fleet(pp, depth);
   auto& clock = MonotonicClock::instance();
   Nanos next = clock.now();
   const Nanos period = static_cast<Nanos>(1e9 / rate);
-  auto feat = std::make_unique<cairn_FeatureObservations>();
   for (const auto& m : s.messages) {
     if (shutdown_requested()) break;
-    if (const auto* o = std::get_if<msg::OdometryIncrement>(&m)) {
-      cairn_OdometryIncrement out{};
-      dds::to_dds(*o, &out);
-      ow.write(out);
-      ++n_odo;
-      if (o->robot_id == robots) {  // one simulated step done
-        next += period;
-        clock.sleep_until(next);
-      }
-    } else {
-      *feat = {};
-      dds::to_dds(std::get<msg::FeatureObservations>(m), feat.get());
-      fw.write(*feat);
-      ++n_feat;
+    const msg::OdometryIncrement* o = fleet.publish(m);
+    if (o && o->robot_id == robots) {  // one simulated step done
+      next += period;
+      clock.sleep_until(next);
     }
-    if ((n_odo + n_feat) % 500 == 0) {
-      std::printf("feeder: %zu odometry, %zu features sent\n", n_odo, n_feat);
+    if ((fleet.odometry() + fleet.features()) % 500 == 0) {
+      std::printf("feeder: %llu odometry, %llu features sent\n", static_cast<unsigned long long>(fleet.odometry()),
+                  static_cast<unsigned long long>(fleet.features()));
       std::fflush(stdout);
     }
   }
-  std::printf("feeder: done: %zu odometry, %zu features\n", n_odo, n_feat);
+  std::printf("feeder: done: %llu odometry, %llu features\n", static_cast<unsigned long long>(fleet.odometry()),
+              static_cast<unsigned long long>(fleet.features()));
   std::fflush(stdout);
   while (!shutdown_requested()) clock.sleep_until(clock.now() + 50 * kNanosPerMilli);
   return 0;

@@ -81,4 +81,11 @@ inline FleetScenario make_fleet_scenario(int robots, int steps, std::uint64_t se
   return s;
 }
 
+/// Feeds one message to anything with on_odometry / on_features (the base's Fusion).
+template <typename Sink>
+void feed(Sink* sink, const FleetMessage& m) {
+  if (const auto* od = std::get_if<msg::OdometryIncrement>(&m)) sink->on_odometry(*od);
+  else sink->on_features(std::get<msg::FeatureObservations>(m));
+}
+
 }  // namespace cairn::fleet_stream
