@@ -29,6 +29,9 @@ if(CAIRN_HOST_ONLY_PARTS)
   if(TARGET cairn-map-quality)  # tools/map_quality: a map against a HIL world's ground truth
     install(TARGETS cairn-map-quality RUNTIME DESTINATION bin COMPONENT base)
   endif()
+  if(TARGET cairn-fuzz-base)  # tools/fuzz_base: hostile DDS input against a base on loopback
+    install(TARGETS cairn-fuzz-base RUNTIME DESTINATION bin COMPONENT base)
+  endif()
   install(FILES config/base.toml DESTINATION /etc/cairn COMPONENT base)
   install(FILES ${cairn_pkg}/base/cairn-base.service DESTINATION /lib/systemd/system COMPONENT base)
   install(FILES docs/ccml.md docs/mapper.md docs/config.md docs/dds.md DESTINATION share/doc/cairn-base COMPONENT base)
