@@ -133,6 +133,14 @@ void SampleMutator::random_bytes(T* s) {
   for (std::size_t i = 0; i < sizeof(T); ++i) p[i] = static_cast<unsigned char>(rng_());
 }
 
+template <typename T>
+bool SampleMutator::randomised(Mutation m, T* s) {
+  if (m != Mutation::kRandomBytes) return false;
+  random_bytes(s);
+  s->robot_id = random_non_real_id();
+  return true;
+}
+
 void SampleMutator::plausible_odometry(std::uint16_t id, cairn_OdometryIncrement* s) {
   Fake& f = fakes_[id - cfg_.first_fake_id];
   std::normal_distribution<double> g(0.0, 1.0);
@@ -179,11 +187,7 @@ Mutation SampleMutator::odometry(cairn_OdometryIncrement* s) {
   std::bernoulli_distribution real_robot(cfg_.fleet.empty() ? 0.0 : 0.2);
   const bool r = real_robot(rng_);
   const Mutation m = pick(r, false, true);
-  if (m == Mutation::kRandomBytes) {
-    random_bytes(s);
-    s->robot_id = random_non_real_id();
-    return m;
-  }
+  if (randomised(m, s)) return m;
   const std::uint16_t fake = pick_fake();
   plausible_odometry(fake, s);
   if (r) s->robot_id = pick_real();
@@ -237,9 +241,7 @@ Mutation SampleMutator::features(cairn_FeatureObservations* s) {
     std::bernoulli_distribution marker(0.15);
     if (marker(rng_)) m = Mutation::kBadMarker;
   }
-  if (m == Mutation::kRandomBytes) {
-    random_bytes(s);
-    s->robot_id = random_non_real_id();
+  if (randomised(m, s)) {
     for (auto& f : s->features) f.kind = rng_() % 2 ? cairn_FEATURE_ROBOT : cairn_FEATURE_LANDMARK;
     return m;
   }
@@ -303,11 +305,7 @@ Mutation SampleMutator::features(cairn_FeatureObservations* s) {
 
 Mutation SampleMutator::scan(cairn_LaserScan* s) {
   const Mutation m = pick(false, true, true);
-  if (m == Mutation::kRandomBytes) {
-    random_bytes(s);
-    s->robot_id = random_non_real_id();
-    return m;
-  }
+  if (randomised(m, s)) return m;
   const std::uint16_t id = pick_fake();
   const Fake& f = fakes_[id - cfg_.first_fake_id];
   *s = {};
@@ -361,9 +359,7 @@ Mutation SampleMutator::scan(cairn_LaserScan* s) {
 
 Mutation SampleMutator::status(cairn_RobotStatus* s) {
   const Mutation m = pick(false, true, false);
-  if (m == Mutation::kRandomBytes) {
-    random_bytes(s);
-    s->robot_id = random_non_real_id();
+  if (randomised(m, s)) {
     s->mode = static_cast<cairn_RobotMode>(rng_() % 5);
     std::uniform_int_distribution<std::size_t> at(0, 200);
     terminate(s->name, sizeof s->name, at(rng_));
@@ -399,11 +395,7 @@ Mutation SampleMutator::status(cairn_RobotStatus* s) {
 
 Mutation SampleMutator::bid(cairn_Bid* s) {
   const Mutation m = pick(false, true, false);
-  if (m == Mutation::kRandomBytes) {
-    random_bytes(s);
-    s->robot_id = random_non_real_id();
-    return m;
-  }
+  if (randomised(m, s)) return m;
   const std::uint16_t id = pick_fake();
   const Fake& f = fakes_[id - cfg_.first_fake_id];
   *s = {};

@@ -79,6 +79,9 @@ class SampleMutator {
   double huge_value();
   template <typename T>
   void random_bytes(T* s);
+  /// kRandomBytes: fills `s` at random under an id outside the fleet; false for any other mutation.
+  template <typename T>
+  bool randomised(Mutation m, T* s);
   void plausible_odometry(std::uint16_t id, cairn_OdometryIncrement* s);
   void plausible_features(std::uint16_t id, cairn_FeatureObservations* s);
 
