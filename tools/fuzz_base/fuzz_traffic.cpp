@@ -42,34 +42,20 @@ void FuzzTraffic::send_one() {
   const Topic t = rotation_[turn_ % rotation_.size()];
   const bool alternate = (turn_ / rotation_.size()) % 2 == 1;
   ++turn_;
+  // Fill the topic's sample, maybe move it onto the id sweep, write it with `writer`.
   Mutation m{};
   bool ok = false;
+  auto emit = [&](auto& tw, auto fill, auto& writer) {
+    m = (mutator_.*fill)(tw.sample.get());
+    mutator_.sweep(&tw.sample->robot_id);
+    ok = writer.write(*tw.sample);
+  };
   switch (t) {
-    case Topic::kOdometry:
-      m = mutator_.odometry(w_->odometry.sample.get());
-      mutator_.sweep(&w_->odometry.sample->robot_id);
-      ok = w_->odometry.writer.write(*w_->odometry.sample);
-      break;
-    case Topic::kFeatures:
-      m = mutator_.features(w_->features.sample.get());
-      mutator_.sweep(&w_->features.sample->robot_id);
-      ok = w_->features.writer.write(*w_->features.sample);
-      break;
-    case Topic::kScan:
-      m = mutator_.scan(w_->scan.sample.get());
-      mutator_.sweep(&w_->scan.sample->robot_id);
-      ok = alternate ? w_->scan_best_effort.write(*w_->scan.sample) : w_->scan.writer.write(*w_->scan.sample);
-      break;
-    case Topic::kStatus:
-      m = mutator_.status(w_->status.sample.get());
-      mutator_.sweep(&w_->status.sample->robot_id);
-      ok = w_->status.writer.write(*w_->status.sample);
-      break;
-    case Topic::kBid:
-      m = mutator_.bid(w_->bid.sample.get());
-      mutator_.sweep(&w_->bid.sample->robot_id);
-      ok = w_->bid.writer.write(*w_->bid.sample);
-      break;
+    case Topic::kOdometry: emit(w_->odometry, &SampleMutator::odometry, w_->odometry.writer); break;
+    case Topic::kFeatures: emit(w_->features, &SampleMutator::features, w_->features.writer); break;
+    case Topic::kScan: emit(w_->scan, &SampleMutator::scan, alternate ? w_->scan_best_effort : w_->scan.writer); break;
+    case Topic::kStatus: emit(w_->status, &SampleMutator::status, w_->status.writer); break;
+    case Topic::kBid: emit(w_->bid, &SampleMutator::bid, w_->bid.writer); break;
     case Topic::kCount: return;
   }
   ++sent_[static_cast<std::size_t>(t)][static_cast<std::size_t>(m)];
