@@ -6,7 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 secs=${1:-30}
 cmake --preset fuzz >/dev/null
-cmake --build --preset fuzz >/dev/null
+cmake --build --preset fuzz --target fuzzers >/dev/null   # the fuzz targets only
 work=build/fuzz/run
 mkdir -p "$work" build/fuzz/crashes
 declare -A corpus=([fuzz_lms_codec]=lms_replies [fuzz_lms_request]=lms_requests [fuzz_canopen]=canopen [fuzz_modbus]=modbus [fuzz_modbus_rtu]=modbus_rtu [fuzz_carmen]=carmen [fuzz_network]=network)

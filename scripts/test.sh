@@ -11,27 +11,28 @@ quick=0
 scripts/setup-deps.sh
 export CYCLONEDDS_URI="file://$PWD/config/dds/loopback.xml"   # every DDS program stays on loopback
 start=$(date +%s)
+stage() { echo "== test: $* (at $(( $(date +%s) - start )) s)"; }   # elapsed per stage: where CI's time goes
 
-echo "== test: build (ci preset: release, -Werror)"
+stage "build (ci preset: release, -Werror)"
 scripts/build.sh ci
-echo "== test: full suite"
+stage "full suite"
 ctest --preset ci -j2
 
 if ((quick == 0)); then
-  echo "== test: build (asan preset: ASan + UBSan, -Werror)"
+  stage "build (asan preset: ASan + UBSan, -Werror)"
   scripts/build.sh asan
-  echo "== test: unit and integration tests under ASan + UBSan"
+  stage "unit and integration tests under ASan + UBSan"
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --preset asan -j2 -LE 'bench|slow|packaging|layers'
-  echo "== test: build (tsan preset: ThreadSanitizer, -Werror)"
+  stage "build (tsan preset: ThreadSanitizer, -Werror)"
   scripts/build.sh tsan
-  echo "== test: unit and integration tests under TSan"
+  stage "unit and integration tests under TSan"
   TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1" ctest --preset tsan -j2 -LE 'bench|slow|packaging|layers'
-  echo "== test: fuzz targets (clang libFuzzer + ASan/UBSan), 30 s each"
+  stage "fuzz targets (clang libFuzzer + ASan/UBSan), 30 s each"
   scripts/fuzz.sh 30
-  echo "== test: cross-build the robot side for aarch64 (-Werror); its tests and package under qemu-user"
+  stage "cross-build the robot side for aarch64 (-Werror); its tests and package under qemu-user"
   scripts/build-cross.sh aarch64 --test
-  echo "== test: cross-build the robot side for armhf (-Werror, sysroot); its tests and package under qemu-user"
+  stage "cross-build the robot side for armhf (-Werror, sysroot); its tests and package under qemu-user"
   scripts/build-cross.sh armhf --test
 fi
 echo "== test: all passed in $(( $(date +%s) - start )) s"

@@ -193,11 +193,22 @@ TEST(RobotProcess, DrivesItsRouteThroughTheRealDriversWithFaultsAndTheBaseFollow
               q.known, 100 * q.agreement, q.wall_offset_mean_cells(), q.wall_offset_max_cells());
   // Runs in real time with injected faults vary: 97.2 % / max 0.97 cell and 95.0 % / 1.51
   // cells were seen on the same tree. Scans placed in wrong frames give ~84 % and walls
-  // metres off (docs/mapper.md), which these bounds catch.
+  // metres off (docs/mapper.md), which these bounds catch. Under a sanitizer the three
+  // processes run several times slower on the same cores: CI's TSan/ASan pass once gave
+  // 92.7 % / 2.5 cells (the base's end pose 0.21 m off), so there the bounds are wider,
+  // still well clear of wrong frames.
+#ifdef CAIRN_SANITIZED
+  constexpr double kMinAgreement = 0.90, kMaxWallOffsetCells = 4.0;
+#else
+  constexpr double kMinAgreement = 0.93, kMaxWallOffsetCells = 2.0;
+#endif
+  const auto fusion_line = base.output().rfind("fusion: odometry");
+  std::printf("base's last %s\n", fusion_line == std::string::npos ? "fusion line: none"
+                                      : base.output().substr(fusion_line, base.output().find('\n', fusion_line) - fusion_line).c_str());
   EXPECT_GT(q.known, 2000u);
-  EXPECT_GE(q.agreement, 0.93);
+  EXPECT_GE(q.agreement, kMinAgreement);
   EXPECT_LE(q.wall_offset_mean_cells(), 1.0);
-  EXPECT_LE(q.wall_offset_max_cells(), 2.0);
+  EXPECT_LE(q.wall_offset_max_cells(), kMaxWallOffsetCells);
 
   const auto final_line = hil.wait_for_line("final robot 1 at", 1s);
   ASSERT_TRUE(final_line) << hil.output();
