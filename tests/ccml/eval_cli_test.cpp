@@ -1,4 +1,4 @@
-// cairn-eval ccml-paper and vehicles-needed, run as a user would.
+// cairn-eval ccml-paper, vehicles-needed and mrclam's calibration, run as a user would.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -36,6 +36,33 @@ TEST(CairnEval, VehiclesNeededAndBadArguments) {
   testing::Subprocess bad({CAIRN_EVAL_BIN, "ccml-paper", "--scenario", "3"});
   EXPECT_NE(bad.wait(10s), 0);
   EXPECT_NE(bad.output().find("scenario"), std::string::npos);
+}
+
+// The documented noise procedure from the command line: fitted on Dataset 6's first 300 s,
+// scored after them; a dataset without robot ground truth cannot calibrate.
+TEST(CairnEval, MrclamCalibratesOnAHeldOutWindowAndRefusesDatasetsWithoutGroundTruth) {
+  const std::string root = std::string(CAIRN_SOURCE_DIR_STR) + "/../shared/datasets/mrclam/MRCLAM_Dataset";
+  if (!std::filesystem::exists(root + "6/Barcodes.dat")) GTEST_SKIP() << "no " << root << "6";
+  testing::Subprocess p({CAIRN_EVAL_BIN, "mrclam", root + "6", "--association", "labels", "--calibrate-on", root + "6", "--json"});
+  ASSERT_EQ(p.wait(120s), 0) << p.output();
+  const auto start = p.output().find("\n{");  // progress lines (stderr) come first on the shared pipe
+  ASSERT_NE(start, std::string::npos) << p.output();
+  const auto j = nlohmann::json::parse(p.output().substr(start));
+  EXPECT_EQ(j["scored_from_s"].get<double>(), 300.0);
+  EXPECT_GT(j["noise"]["landmark_sightings"].get<int>(), 1000);
+  bool found = false;
+  for (const auto& run : j["runs"]) {
+    if (run["mode"] != "cooperative-cml") continue;
+    found = true;
+    double nees = 0;
+    for (const auto& r : run["robots"]) nees += r["nees_mean"].get<double>() / 5.0;
+    EXPECT_GE(nees, 2.0);
+    EXPECT_LE(nees, 4.5);
+  }
+  EXPECT_TRUE(found) << p.output();
+  testing::Subprocess bad({CAIRN_EVAL_BIN, "mrclam", root + "6", "--calibrate-on", root + "1"});
+  EXPECT_EQ(bad.wait(60s), 1);
+  EXPECT_NE(bad.output().find("needs robot ground truth"), std::string::npos) << bad.output();
 }
 
 }  // namespace

@@ -96,7 +96,9 @@ struct Event {
   std::size_t index;
 };
 
-std::optional<Pose2> interpolate(const std::vector<MrclamPose>& gt, double t, std::size_t* hint) {
+}  // namespace
+
+std::optional<Pose2> interpolate_groundtruth(const std::vector<MrclamPose>& gt, double t, std::size_t* hint) {
   if (gt.empty() || t < gt.front().t || t > gt.back().t) return std::nullopt;
   std::size_t i = *hint;
   while (i + 1 < gt.size() && gt[i + 1].t < t) ++i;
@@ -106,6 +108,26 @@ std::optional<Pose2> interpolate(const std::vector<MrclamPose>& gt, double t, st
   const double u = b.t > a.t ? (t - a.t) / (b.t - a.t) : 0.0;
   return Pose2{a.x + u * (b.x - a.x), a.y + u * (b.y - a.y), normalize_angle(a.theta + u * normalize_angle(b.theta - a.theta))};
 }
+
+Mat3 mrclam_odometry_cov(const MrclamOptions& o, double v, double w, double dt) {
+  const double dist = std::abs(v * dt), turn = std::abs(w * dt);
+  const double sx = o.odom_v_rel * dist, sy = 0.3 * o.odom_v_rel * dist, st = o.odom_w_rel * turn + 0.1 * o.odom_w_rel * dist;
+  return Vec3(sx * sx + o.odom_v_rate * o.odom_v_rate * dt, sy * sy + 0.25 * o.odom_v_rate * o.odom_v_rate * dt,
+              st * st + o.odom_w_rate * o.odom_w_rate * dt)
+      .asDiagonal();
+}
+
+double mrclam_start(const MrclamData& d) {
+  const bool gt = d.has_robot_groundtruth();
+  double t0 = 1e300;
+  for (const auto& rd : d.robots) {
+    if (gt) t0 = std::min(t0, rd.groundtruth.front().t);
+    else if (!rd.odometry.empty()) t0 = std::min(t0, rd.odometry.front().t);
+  }
+  return t0;
+}
+
+namespace {
 
 // Multi-start ICP of `est` onto `gt` by nearest neighbour; returns the RMSE and, per est point, the gt index.
 double label_free_fit(const std::vector<Vec2>& est, const std::vector<Vec2>& gt, std::vector<int>* nearest) {
@@ -215,20 +237,13 @@ void Runner::predict(int r, double t) {
   const double dt = t - rr.t_last;
   if (dt <= 0) return;
   rr.t_last = t;
-  const double dth = rr.w * dt;
-  const Pose2 delta = arc_motion(rr.v, rr.w, dt);
-  const double dist = std::abs(rr.v * dt), turn = std::abs(dth);
-  const double sx = o_.odom_v_rel * dist, sy = 0.3 * o_.odom_v_rel * dist, st = o_.odom_w_rel * turn + 0.1 * o_.odom_w_rel * dist;
-  Mat3 Q = Vec3(sx * sx + o_.odom_v_rate * o_.odom_v_rate * dt, sy * sy + 0.25 * o_.odom_v_rate * o_.odom_v_rate * dt,
-                st * st + o_.odom_w_rate * o_.odom_w_rate * dt)
-               .asDiagonal();
-  filter(r).predict(static_cast<RobotId>(r + 1), delta, Q);
+  filter(r).predict(static_cast<RobotId>(r + 1), arc_motion(rr.v, rr.w, dt), mrclam_odometry_cov(o_, rr.v, rr.w, dt));
 }
 
 void Runner::sample(int r, double t) {
   RobotRun& rr = robots_[r];
-  const auto gt = interpolate(d_.robots[r].groundtruth, t, &rr.gt_hint);
-  if (!gt || !rr.localized) return;
+  const auto gt = interpolate_groundtruth(d_.robots[r].groundtruth, t, &rr.gt_hint);
+  if (!gt || !rr.localized || t - t0_ < o_.score_from) return;
   const Pose2 est = filter(r).robot_pose(static_cast<RobotId>(r + 1));
   const Vec3 e(est.x - gt->x, est.y - gt->y, normalize_angle(est.theta - gt->theta));
   rr.sq += e.head<2>().squaredNorm();
@@ -360,11 +375,7 @@ MrclamResult Runner::run() {
 
   // Start: the first ground-truth instant (robots stand still until their first odometry), else the first odometry.
   // A robot whose ground truth starts later joins then (join_at_groundtruth).
-  t0_ = 1e300;
-  for (const auto& rd : d_.robots) {
-    if (gt) t0_ = std::min(t0_, rd.groundtruth.front().t);
-    else if (!rd.odometry.empty()) t0_ = std::min(t0_, rd.odometry.front().t);
-  }
+  t0_ = mrclam_start(d_);
   double t_end = 1e300;
   for (const auto& rd : d_.robots) {
     if (gt) t_end = std::min(t_end, rd.groundtruth.back().t);

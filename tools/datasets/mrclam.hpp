@@ -61,7 +61,15 @@ struct MrclamOptions {
   double max_range = 8.0;           // JCBB candidates: predicted range below this
   int iterations = 1;               // EKF update iterations
   double duration = 0;              // seconds from the start (0 = all)
+  double score_from = 0;            // score (RMSE, NEES) only from this many seconds after the start
 };
+
+/// The odometry covariance the runs add for one step of commanded (v, w) over dt.
+Mat3 mrclam_odometry_cov(const MrclamOptions& o, double v, double w, double dt);
+/// Ground truth linearly interpolated at t (nullopt outside it); `hint` speeds up increasing t.
+std::optional<Pose2> interpolate_groundtruth(const std::vector<MrclamPose>& gt, double t, std::size_t* hint);
+/// The runs' start: the earliest ground-truth sample, else the earliest odometry.
+double mrclam_start(const MrclamData& d);
 
 struct MrclamRobotResult {
   int robot = 0;

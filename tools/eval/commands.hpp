@@ -22,6 +22,8 @@ struct MrclamCmdOptions {
   std::string association = "both";  // labels | jcbb | both
   double duration = 0;
   int iterations = 1;
+  std::string calibrate_on;     // a dataset with robot ground truth: noise fitted on it (docs/ccml.md)
+  double calibrate_until = 300;  // ... over its first S seconds; on the evaluated dataset, scored after them
   bool json = false;
 };
 int mrclam(const MrclamCmdOptions& o);

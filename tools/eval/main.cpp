@@ -36,6 +36,12 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"labels", "jcbb", "both"}));
   mc->add_option("--duration", mr.duration, "use only the first S seconds (0 = all)")->check(CLI::NonNegativeNumber);
   mc->add_option("--iterations", mr.iterations, "EKF update iterations (1 = EKF)")->check(CLI::Range(1, 50));
+  mc->add_option("--calibrate-on", mr.calibrate_on,
+                 "fit the noise model on this dataset's ground truth (docs/ccml.md); when it is DIR itself, "
+                 "results are scored only after the calibration window")
+      ->check(CLI::ExistingDirectory);
+  mc->add_option("--calibrate-until", mr.calibrate_until, "calibration window: the first S seconds (default 300)")
+      ->check(CLI::PositiveNumber);
   mc->add_flag("--json", mr.json, "print JSON");
 
   ScansCmdOptions sc;
