@@ -15,7 +15,7 @@ ExploreNode::ExploreNode(const dds::Participant& pp, const explore::AllocatorCon
       task_writer_(pp, task_topic_, dds::latched_qos()) {  // a robot that restarts gets its task
 }
 
-void ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet) {
+bool ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet) {
   // Only robots the fusion tracks (bounded by configuration), and only once the fleet has
   // heard from them.
   for (const std::uint16_t id : fusion.robots()) {
@@ -53,10 +53,12 @@ void ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet) {
       ++counters_.write_failures;
     }
   }
-  if (explored && !reported_explored_) {
+  const bool completed = explored && !reported_explored_;
+  if (completed) {
     CAIRN_LOG_INFO("explore", "exploration complete: no frontier with a gain above {} cells is left", allocator_.config().min_gain);
   }
   reported_explored_ = explored;
+  return completed;
 }
 
 std::string ExploreNode::summary() const {

@@ -28,8 +28,9 @@ class ExploreNode {
  public:
   ExploreNode(const dds::Participant& pp, const explore::AllocatorConfig& config);
   /// Takes the bids that arrived, tells the allocator every localised robot's global pose
-  /// and every change of link, runs it and writes what it assigns. Never blocks.
-  void poll(Nanos now, const Fusion& fusion, const Fleet& fleet);
+  /// and every change of link, runs it and writes what it assigns. Never blocks. Returns
+  /// true in the poll where exploration became complete (once per completion).
+  bool poll(Nanos now, const Fusion& fusion, const Fleet& fleet);
   /// One line for the console.
   std::string summary() const;
   const explore::TaskAllocator& allocator() const { return allocator_; }

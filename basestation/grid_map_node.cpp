@@ -129,6 +129,17 @@ std::string GridMapNode::export_to(const std::string& dir, const Fusion& fusion)
   }
 }
 
+GridMapNode::Area GridMapNode::area() const {
+  const ClassGrid g = mapper_.classified();
+  const double cell_m2 = g.geometry.resolution * g.geometry.resolution;
+  Area a;
+  for (const Cell c : g.cells) {
+    if (c == Cell::kClear) a.clear_m2 += cell_m2;
+    if (c == Cell::kObstacle) a.obstacle_m2 += cell_m2;
+  }
+  return a;
+}
+
 std::string GridMapNode::summary() const {
   const mapper::MapperCounters& m = mapper_.counters();
   char buf[384];

@@ -56,6 +56,12 @@ class GridMapNode {
   const GridMapCounters& counters() const { return counters_; }
   /// One line for the console.
   std::string summary() const;
+  /// The mapped area by class (m²), from the map as classified now: the base's own measure
+  /// of what exploration covered (it knows no building outline to divide by).
+  struct Area {
+    double clear_m2 = 0, obstacle_m2 = 0;
+  };
+  Area area() const;
 
  private:
   void reframe(const Fusion& fusion);

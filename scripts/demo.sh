@@ -72,6 +72,7 @@ while kill -0 "$base" 2>/dev/null; do
   if grep -q "exploration complete" "$run/base.err" 2>/dev/null; then
     echo "demo: the base reports the office explored after $(( $(date +%s) - t0 )) s"
     sleep 2
+    grep -m1 -o "explored: .*" "$run/base.err" | sed 's/^/demo: the base: /' || true
     kill -INT "$base" 2>/dev/null || true
     break
   fi

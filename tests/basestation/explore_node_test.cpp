@@ -119,5 +119,43 @@ TEST(ExploreNode, BidsFromLocalisedRobotsComeBackAsCoordinatedTasks) {
   EXPECT_FALSE(t2->active);
 }
 
+// Both robots bid, with nothing left to gain: poll() says exploration is complete once,
+// in the poll where it happens (cairn-base then reports the mapped area and saves the map).
+TEST(ExploreNode, PollReportsTheEndOfExplorationOnce) {
+  dds::Participant pp(dds::loopback_profile(kDomain + 1));
+  Fusion fusion(two_robots());
+  localise(&fusion, 1);
+  localise(&fusion, 2);
+  Fleet fleet(3 * kNanosPerSecond, nullptr, FleetAdmission{{1, 2}, 8, {}});
+  auto& clock = MonotonicClock::instance();
+  for (std::uint16_t id : {std::uint16_t{1}, std::uint16_t{2}}) fleet.on_status(id, "r", "running", 1, clock.now());
+  explore::AllocatorConfig cfg;
+  cfg.bid_wait = 100 * kNanosPerMilli;
+  ExploreNode node(pp, cfg);
+  dds::Participant robots(dds::loopback_profile(kDomain + 1));
+  dds::Topic<cairn_Bid> bid_topic(robots);
+  dds::Writer<cairn_Bid> bids(robots, bid_topic, dds::state_qos(1));
+  ASSERT_TRUE(bids.wait_for_readers(1, 5 * kNanosPerSecond));
+  for (std::uint16_t id : {std::uint16_t{1}, std::uint16_t{2}}) {
+    msg::Bid b;
+    b.robot_id = id;
+    b.seq = 1;
+    b.n_items = 1;
+    b.items[0] = item(3, id, cfg.min_gain, 1, 1);  // gain not above the threshold
+    cairn_Bid d{};
+    dds::to_dds(b, &d);
+    ASSERT_TRUE(bids.write(d));
+  }
+  int completions = 0;
+  const Nanos end = clock.now() + 2 * kNanosPerSecond;
+  while (clock.now() < end) {
+    completions += node.poll(clock.now(), fusion, fleet) ? 1 : 0;
+    usleep(5000);
+  }
+  EXPECT_TRUE(node.allocator().explored()) << node.summary();
+  EXPECT_EQ(completions, 1);
+  EXPECT_EQ(node.counters().bids_taken, 2u);
+}
+
 }  // namespace
 }  // namespace cairn::base

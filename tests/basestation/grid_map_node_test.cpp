@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -104,6 +105,17 @@ TEST(GridMapNode, ScansFromDdsBuildTheMapOnlyChangedTilesGoOutAndALateReaderGets
   ASSERT_TRUE(poll_until(node, fusion, [&] { return node.counters().scans_taken == 6; })) << node.summary();
   EXPECT_EQ(node.counters().scans_unplaced, 1u);
   EXPECT_EQ(node.mapper().counters().scans_inserted, 5u);
+  // The mapped area the base reports when exploration ends, against the classified map.
+  {
+    const ClassGrid now = node.mapper().classified();
+    const double cell_m2 = now.geometry.resolution * now.geometry.resolution;
+    const auto count = [&](Cell c) { return static_cast<double>(std::count(now.cells.begin(), now.cells.end(), c)); };
+    const GridMapNode::Area area = node.area();
+    EXPECT_GT(count(Cell::kClear), 100.0);
+    EXPECT_GT(count(Cell::kObstacle), 10.0);
+    EXPECT_NEAR(area.clear_m2, count(Cell::kClear) * cell_m2, 1e-9);
+    EXPECT_NEAR(area.obstacle_m2, count(Cell::kObstacle) * cell_m2, 1e-9);
+  }
 
   // The room's corners are 7.07 m from the robot at (1, 2): it spans at most global
   // [-6.1, 8.1] x [-5.1, 9.1], cells 39..134 x 46..141, tiles 0..2 on each axis. The other
