@@ -43,7 +43,7 @@ bool ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet) {
     (void)allocator_.on_bid(bid, now);  // a malformed one is counted by the allocator
   });
   out_.clear();
-  const bool explored = allocator_.tick(now, &out_);
+  const bool completed = allocator_.tick(now, &out_);  // true once, on the tick exploration ended
   for (const msg::TaskAssignment& a : out_) {
     cairn_TaskAssignment d{};
     dds::to_dds(a, &d);
@@ -53,11 +53,9 @@ bool ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet) {
       ++counters_.write_failures;
     }
   }
-  const bool completed = explored && !reported_explored_;
   if (completed) {
     CAIRN_LOG_INFO("explore", "exploration complete: no frontier with a gain above {} cells is left", allocator_.config().min_gain);
   }
-  reported_explored_ = explored;
   return completed;
 }
 

@@ -44,7 +44,6 @@ class ExploreNode {
   dds::Writer<cairn_TaskAssignment> task_writer_;
   std::map<std::uint16_t, bool> alive_;  // the link state last told to the allocator
   std::vector<msg::TaskAssignment> out_;
-  bool reported_explored_ = false;
   ExploreNodeCounters counters_;
 };
 

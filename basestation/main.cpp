@@ -130,11 +130,12 @@ int run(const std::string& config_path, double duration_s) {
         });
     fleet.tick(now);
     if (explore && explore->poll(now, fusion->fusion(), fleet) && map) {
-      // Exploration just ended: say what it covered and save the map without being asked.
+      // Exploration just ended: save the map without being asked, and say what it covered
+      // (after the export, which re-renders it: the area is that of the map written).
+      export_map(*map, *fusion, cfg.map_export_dir, "exploration complete");
       const base::GridMapNode::Area a = map->area();
       CAIRN_LOG_INFO("explore", "explored: {:.1f} m2 mapped ({:.1f} m2 clear, {:.1f} m2 obstacle)", a.clear_m2 + a.obstacle_m2,
                      a.clear_m2, a.obstacle_m2);
-      export_map(*map, *fusion, cfg.map_export_dir, "exploration complete");
     }
     if (now >= next_table) {
       next_table += cfg.table_period;

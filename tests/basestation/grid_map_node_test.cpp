@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -115,6 +116,13 @@ TEST(GridMapNode, ScansFromDdsBuildTheMapOnlyChangedTilesGoOutAndALateReaderGets
     EXPECT_GT(count(Cell::kObstacle), 10.0);
     EXPECT_NEAR(area.clear_m2, count(Cell::kClear) * cell_m2, 1e-9);
     EXPECT_NEAR(area.obstacle_m2, count(Cell::kObstacle) * cell_m2, 1e-9);
+    // And against the room itself: 10 x 10 m seen from inside, its 40 m of wall about a
+    // cell thick.
+    std::printf("room: %.1f m2 clear, %.1f m2 obstacle\n", area.clear_m2, area.obstacle_m2);
+    EXPECT_GT(area.clear_m2, 70.0);
+    EXPECT_LT(area.clear_m2, 100.0);
+    EXPECT_GT(area.obstacle_m2, 40 * now.geometry.resolution * 0.5);
+    EXPECT_LT(area.obstacle_m2, 40 * now.geometry.resolution * 3);
   }
 
   // The room's corners are 7.07 m from the robot at (1, 2): it spans at most global

@@ -48,7 +48,7 @@ TEST(CairnEval, MrclamCalibratesOnAHeldOutWindowAndRefusesDatasetsWithoutGroundT
   const auto start = p.output().find("\n{");  // progress lines (stderr) come first on the shared pipe
   ASSERT_NE(start, std::string::npos) << p.output();
   const auto j = nlohmann::json::parse(p.output().substr(start));
-  EXPECT_EQ(j["scored_from_s"].get<double>(), 300.0);
+  EXPECT_EQ(j["poses_scored_from_s"].get<double>(), 300.0);
   EXPECT_GT(j["noise"]["landmark_sightings"].get<int>(), 1000);
   bool found = false;
   for (const auto& run : j["runs"]) {
@@ -60,6 +60,7 @@ TEST(CairnEval, MrclamCalibratesOnAHeldOutWindowAndRefusesDatasetsWithoutGroundT
     EXPECT_LE(nees, 4.5);
   }
   EXPECT_TRUE(found) << p.output();
+  if (!std::filesystem::exists(root + "1/Barcodes.dat")) GTEST_SKIP() << "no " << root << "1";
   testing::Subprocess bad({CAIRN_EVAL_BIN, "mrclam", root + "6", "--calibrate-on", root + "1"});
   EXPECT_EQ(bad.wait(60s), 1);
   EXPECT_NE(bad.output().find("needs robot ground truth"), std::string::npos) << bad.output();

@@ -175,6 +175,7 @@ MrclamNoiseFit calibrate_mrclam(const MrclamData& data, double until_s, double w
       fit.calibration_nees = nees;
     }
   }
+  if (fit.calibration_nees < 0) throw std::invalid_argument("MRCLAM calibration: no run over the window was scored (no NEES)");
   return fit;
 }
 

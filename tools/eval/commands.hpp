@@ -24,6 +24,7 @@ struct MrclamCmdOptions {
   int iterations = 1;
   std::string calibrate_on;     // a dataset with robot ground truth: noise fitted on it (docs/ccml.md)
   double calibrate_until = 300;  // ... over its first S seconds; on the evaluated dataset, scored after them
+  double score_from = 0;         // pose RMSE / NEES only from S seconds after the start
   bool json = false;
 };
 int mrclam(const MrclamCmdOptions& o);

@@ -42,6 +42,10 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingDirectory);
   mc->add_option("--calibrate-until", mr.calibrate_until, "calibration window: the first S seconds (default 300)")
       ->check(CLI::PositiveNumber);
+  mc->add_option("--score-from", mr.score_from,
+                 "score robot poses (RMSE, NEES) only from S seconds after the start (default 0; with --calibrate-on DIR "
+                 "itself, the calibration window)")
+      ->check(CLI::NonNegativeNumber);
   mc->add_flag("--json", mr.json, "print JSON");
 
   ScansCmdOptions sc;

@@ -89,15 +89,16 @@ int mrclam(const MrclamCmdOptions& o) {
   }
   json out = {{"dataset", o.dir}, {"runs", json::array()}};
   std::optional<MrclamNoiseFit> fit;
-  double score_from = 0;
+  double score_from = o.score_from;
   if (!o.calibrate_on.empty()) {
     const bool same = std::filesystem::equivalent(o.calibrate_on, o.dir);
     std::cerr << "mrclam: fitting the noise model on the first " << o.calibrate_until << " s of " << o.calibrate_on << "...\n";
-    fit = calibrate_mrclam(same ? data : load_mrclam(o.calibrate_on), o.calibrate_until);
-    if (same) score_from = o.calibrate_until;  // held out: the calibration window is not scored
+    fit = same ? calibrate_mrclam(data, o.calibrate_until) : calibrate_mrclam(load_mrclam(o.calibrate_on), o.calibrate_until);
+    // Held out: poses in the calibration window are not scored.
+    if (same) score_from = std::max(score_from, o.calibrate_until);
     out["noise"] = noise_json(*fit, o.calibrate_on);
-    out["scored_from_s"] = score_from;
   }
+  out["poses_scored_from_s"] = score_from;
   std::vector<MrclamResult> results;
   for (const Run& run : runs) {
     MrclamOptions opt;
@@ -132,8 +133,11 @@ int mrclam(const MrclamCmdOptions& o) {
                 "times %.2f for a calibration NEES of %.2f%s\n",
                 fit->until_s, o.calibrate_on.c_str(), fit->measurements, fit->odometry_windows, fit->range_sigma,
                 fit->bearing_sigma, fit->range_median, fit->bearing_median, fit->odom_v_rel, fit->odom_v_rate, fit->odom_w_rel,
-                fit->odom_w_rate, fit->odometry_factor, fit->calibration_nees,
-                score_from > 0 ? "; scored only after the window" : "");
+                fit->odom_w_rate, fit->odometry_factor, fit->calibration_nees, "");
+  }
+  if (score_from > 0) {
+    std::printf("robot poses (rmse, NEES) scored from %.0f s after the start; the other columns cover the whole run\n",
+                score_from);
   }
   std::printf("%-18s %-7s %10s %9s %9s %9s %9s %8s %8s\n", "estimator", "assoc", "rmse (m)", "NEES", "features",
               "lm rmse", "lm free", "assoc err", "time (s)");
