@@ -96,6 +96,7 @@ done
 [ -f "$run/reset.log" ] && echo "demo: $(cat "$run/reset.log")"
 echo
 echo "demo: the base's map at exit ($run/map: map.png with trajectories and landmark ellipses, map.pgm + map.yaml for map_server, landmarks.json):"
-$B/tools/map_quality/cairn-map-quality --map "$run/map/map.yaml" --world "$world" | sed 's/^/  /' ||
+$B/tools/map_quality/cairn-map-quality --map "$run/map/map.yaml" --world "$world" --landmarks "$run/map/landmarks.json" |
+  sed 's/^/  /' ||
   echo "demo: no map was written (see $run/base.err)"
 echo "demo: done (ground truth in $run/truth.txt)"

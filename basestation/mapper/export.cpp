@@ -133,6 +133,31 @@ std::string trim(std::string s) {
 
 }  // namespace
 
+std::vector<msg::Landmark> read_landmarks_json(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::vector<msg::Landmark> out;
+  try {
+    const nlohmann::json j = nlohmann::json::parse(in);
+    for (const auto& l : j.at("landmarks")) {
+      msg::Landmark m;
+      m.id = l.at("id").get<std::uint32_t>();
+      m.x = l.at("x").get<double>();
+      m.y = l.at("y").get<double>();
+      const auto& c = l.at("cov");
+      if (c.size() != 4) throw std::runtime_error("a landmark's cov has " + std::to_string(c.size()) + " entries, not 4");
+      for (std::size_t k = 0; k < 4; ++k) m.cov[k] = c.at(k).get<double>();
+      if (!std::isfinite(m.x) || !std::isfinite(m.y)) throw std::runtime_error("landmark " + std::to_string(m.id) + " is not finite");
+      out.push_back(m);
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(path + ": " + e.what());
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(path + ": " + e.what());
+  }
+  return out;
+}
+
 ClassGrid read_map_server(const std::string& yaml_path) {
   std::ifstream in(yaml_path);
   if (!in) throw std::runtime_error(yaml_path + ": cannot open");

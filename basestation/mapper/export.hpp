@@ -45,6 +45,9 @@ void write_png(const ClassGrid& map, const std::vector<Trajectory>& trajectories
 /// {"frame": "global", "count": N, "landmarks": [{"id", "x", "y", "cov": [xx, xy, yx, yy],
 ///  "ellipse_3sigma": {"major_m", "minor_m", "angle_rad"}}]}.
 void write_landmarks_json(const std::vector<msg::Landmark>& landmarks, const std::string& path);
+/// Reads what write_landmarks_json wrote (id, x, y, cov); throws std::runtime_error naming
+/// the file and the problem.
+std::vector<msg::Landmark> read_landmarks_json(const std::string& path);
 
 /// Reads a map_server map (YAML + the PGM it names, relative to the YAML's folder) the
 /// way map_server's loader does: occ = (255 - v) / 255 (v / 255 with negate), occ >

@@ -1,9 +1,11 @@
 // Map quality on synthetic maps whose answers are known: a perfect map, a map shifted
-// by two cells, half a map, a map that claims clear inside furniture; and the command.
+// by two cells, half a map, a map that claims clear inside furniture; landmarks against
+// poles; and the command.
 #include "tools/map_quality/map_quality.hpp"
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -101,6 +103,58 @@ TEST(MapQuality, CoverageCountsOnlyKnownFreeCellsAndFalseFreeInsideFurniture) {
   EXPECT_NEAR(f.wall_offset_max_m, 1.05 - 0.55, 1e-9);  // nearest: the left wall x = 0.55
 }
 
+msg::Landmark landmark(std::uint32_t id, double x, double y) {
+  msg::Landmark l;
+  l.id = id;
+  l.x = x;
+  l.y = y;
+  l.cov = {0.01, 0, 0, 0.01};
+  return l;
+}
+
+TEST(MapQuality, LandmarksArePairedOneToOneNearestFirst) {
+  const std::vector<Vec2> poles = {{0, 0}, {5, 0}, {10, 0}};
+  // (5.2, 0) and (5, 0.3) both lie near pole 2: the nearer one is its pair, the other is
+  // spurious; nothing lies within 1 m of pole 3; (20, 20) is nowhere near a pole.
+  const std::vector<msg::Landmark> mapped = {landmark(1, 0.1, 0), landmark(2, 5, 0.3), landmark(3, 5.2, 0), landmark(4, 20, 20),
+                                             landmark(5, 11.5, 0)};
+  const LandmarkQuality q = evaluate_landmarks(mapped, poles);
+  EXPECT_EQ(q.poles, 3u);
+  EXPECT_EQ(q.landmarks, 5u);
+  EXPECT_EQ(q.matched, 2u);
+  EXPECT_EQ(q.spurious, 3u);
+  EXPECT_EQ(q.missing, 1u);
+  EXPECT_NEAR(q.error_mean_m, 0.15, 1e-12);
+  EXPECT_NEAR(q.error_rms_m, std::sqrt((0.01 + 0.04) / 2), 1e-12);
+  EXPECT_NEAR(q.error_max_m, 0.2, 1e-12);
+  const LandmarkQuality none = evaluate_landmarks({}, poles);
+  EXPECT_EQ(none.missing, 3u);
+  EXPECT_EQ(none.error_max_m, 0.0);
+}
+
+TEST(MapQuality, LandmarksJsonRoundTripsAndABadFileIsNamed) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("cairn_landmarks_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::vector<msg::Landmark> in = {landmark(7, 1.25, -3.5), landmark(9, 0, 4)};
+  mapper::write_landmarks_json(in, (dir / "l.json").string());
+  const std::vector<msg::Landmark> out = mapper::read_landmarks_json((dir / "l.json").string());
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].id, 7u);
+  EXPECT_EQ(out[0].x, 1.25);
+  EXPECT_EQ(out[0].y, -3.5);
+  EXPECT_EQ(out[1].cov, in[1].cov);
+  std::ofstream(dir / "bad.json") << R"({"landmarks": [{"id": 1, "x": 0}]})";
+  try {
+    (void)mapper::read_landmarks_json((dir / "bad.json").string());
+    ADD_FAILURE() << "a landmark without y was read";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.json"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW((void)mapper::read_landmarks_json((dir / "missing.json").string()), std::runtime_error);
+  fs::remove_all(dir);
+}
+
 TEST(MapQuality, CommandReadsAnExportedMapAndPrintsJson) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::temp_directory_path() / ("cairn_map_quality_" + std::to_string(::getpid()));
@@ -130,6 +184,28 @@ TEST(MapQuality, CommandReadsAnExportedMapAndPrintsJson) {
                                   (dir / "room.world").string()});
     ASSERT_EQ(p.wait(std::chrono::seconds(30)), 0) << p.output();
     EXPECT_NE(p.output().find("agreement"), std::string::npos);
+  }
+  // With the base's landmarks, in the room with two poles: one landmark on a pole (5 cm
+  // off), one far from both.
+  std::ofstream(dir / "poles.world") << kWorld << "pole 3.5 1.0 0.05\npole 1.5 2.5 0.05\n";
+  mapper::write_landmarks_json({landmark(1, 3.55, 1.0), landmark(2, 5.0, 3.5)}, (dir / "landmarks.json").string());
+  {
+    cairn::testing::Subprocess p({CAIRN_MAP_QUALITY_BIN, "--map", (dir / "map.yaml").string(), "--world",
+                                  (dir / "poles.world").string(), "--landmarks", (dir / "landmarks.json").string(), "--json"});
+    ASSERT_EQ(p.wait(std::chrono::seconds(30)), 0) << p.output();
+    const auto j = nlohmann::json::parse(p.output());
+    EXPECT_TRUE(j.contains("agreement"));
+    EXPECT_EQ(j.at("landmarks").at("poles").get<int>(), 2);
+    EXPECT_EQ(j.at("landmarks").at("matched").get<int>(), 1);
+    EXPECT_EQ(j.at("landmarks").at("spurious").get<int>(), 1);
+    EXPECT_EQ(j.at("landmarks").at("missing").get<int>(), 1);
+    EXPECT_NEAR(j.at("landmarks").at("error_max_m").get<double>(), 0.05, 1e-9);
+  }
+  {
+    cairn::testing::Subprocess p({CAIRN_MAP_QUALITY_BIN, "--map", (dir / "map.yaml").string(), "--world",
+                                  (dir / "room.world").string(), "--landmarks", (dir / "nope.json").string()});
+    EXPECT_EQ(p.wait(std::chrono::seconds(30)), 2);
+    EXPECT_NE(p.output().find("nope.json: cannot open"), std::string::npos) << p.output();
   }
   fs::remove_all(dir);
 }

@@ -3,6 +3,7 @@
 //
 //   cairn-map-quality --map map.yaml --world hil/worlds/office.world [--start X Y] [--json]
 //                     [--truth STEM]   also write the rasterised truth as STEM.pgm/.yaml
+//                     [--landmarks landmarks.json]   also score the mapped landmarks against the poles
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
@@ -13,7 +14,7 @@
 
 int main(int argc, char** argv) {
   CLI::App app{"cairn-map-quality: a map against a HIL world's ground truth (coverage, agreement, false cells, wall offset)"};
-  std::string map_path, world_path, truth_stem;
+  std::string map_path, world_path, truth_stem, landmarks_path;
   std::vector<double> start;
   bool json = false;
   app.add_option("--map", map_path, "map_server YAML (its PGM next to it)")->required();
@@ -21,6 +22,8 @@ int main(int argc, char** argv) {
   app.add_option("--start", start, "flood-fill start X Y (m, world frame); default: robot 1's start")->expected(2);
   app.add_flag("--json", json, "print JSON instead of text");
   app.add_option("--truth", truth_stem, "also write the rasterised truth as STEM.pgm + STEM.yaml");
+  app.add_option("--landmarks", landmarks_path,
+                 "also score the base's landmarks.json against the world's poles (nearest within 1 m, one to one)");
   CLI11_PARSE(app, argc, argv);
   try {
     const cairn::mapper::ClassGrid map = cairn::mapper::read_map_server(map_path);
@@ -29,7 +32,13 @@ int main(int argc, char** argv) {
     const cairn::tools::MapQuality q = cairn::tools::evaluate(map, world, s);
     if (!truth_stem.empty())
       cairn::mapper::write_map_server(cairn::tools::truth_as_map(cairn::tools::rasterise(world, map.geometry, s)), truth_stem);
-    std::cout << (json ? cairn::tools::to_json(q) + "\n" : cairn::tools::to_text(q));
+    if (landmarks_path.empty()) {
+      std::cout << (json ? cairn::tools::to_json(q) + "\n" : cairn::tools::to_text(q));
+    } else {
+      const cairn::tools::LandmarkQuality l =
+          cairn::tools::evaluate_landmarks(cairn::mapper::read_landmarks_json(landmarks_path), world.poles());
+      std::cout << (json ? cairn::tools::to_json(q, l) + "\n" : cairn::tools::to_text(q) + cairn::tools::to_text(l));
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "cairn-map-quality: %s\n", e.what());
     return 2;

@@ -196,6 +196,70 @@ std::string to_text(const MapQuality& q) {
   return o.str();
 }
 
+LandmarkQuality evaluate_landmarks(const std::vector<msg::Landmark>& landmarks, const std::vector<Vec2>& poles, double match_m) {
+  LandmarkQuality q;
+  q.poles = poles.size();
+  q.landmarks = landmarks.size();
+  struct Pair {
+    double d;
+    std::size_t pole, landmark;
+  };
+  std::vector<Pair> pairs;
+  for (std::size_t p = 0; p < poles.size(); ++p) {
+    for (std::size_t l = 0; l < landmarks.size(); ++l) {
+      const double d = (Vec2(landmarks[l].x, landmarks[l].y) - poles[p]).norm();
+      if (d <= match_m) pairs.push_back({d, p, l});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.d < b.d; });
+  std::vector<bool> pole_used(poles.size()), landmark_used(landmarks.size());
+  double sum = 0, sq = 0;
+  for (const Pair& pr : pairs) {
+    if (pole_used[pr.pole] || landmark_used[pr.landmark]) continue;
+    pole_used[pr.pole] = landmark_used[pr.landmark] = true;
+    ++q.matched;
+    sum += pr.d;
+    sq += pr.d * pr.d;
+    q.error_max_m = std::max(q.error_max_m, pr.d);
+  }
+  if (q.matched > 0) {
+    q.error_mean_m = sum / static_cast<double>(q.matched);
+    q.error_rms_m = std::sqrt(sq / static_cast<double>(q.matched));
+  }
+  q.spurious = q.landmarks - q.matched;
+  q.missing = q.poles - q.matched;
+  return q;
+}
+
+std::string to_text(const LandmarkQuality& q) {
+  std::ostringstream o;
+  o.setf(std::ios::fixed);
+  o.precision(4);
+  o << "landmarks           " << q.landmarks << " mapped, " << q.poles << " poles in the world: " << q.matched << " matched, "
+    << q.spurious << " spurious, " << q.missing << " missing\n"
+    << "landmark error      mean " << q.error_mean_m << " m, rms " << q.error_rms_m << " m, max " << q.error_max_m << " m\n";
+  return o.str();
+}
+
+std::string to_json(const LandmarkQuality& q) {
+  nlohmann::json j;
+  j["poles"] = q.poles;
+  j["landmarks"] = q.landmarks;
+  j["matched"] = q.matched;
+  j["spurious"] = q.spurious;
+  j["missing"] = q.missing;
+  j["error_mean_m"] = q.error_mean_m;
+  j["error_rms_m"] = q.error_rms_m;
+  j["error_max_m"] = q.error_max_m;
+  return j.dump();
+}
+
+std::string to_json(const MapQuality& q, const LandmarkQuality& l) {
+  nlohmann::json j = nlohmann::json::parse(to_json(q));
+  j["landmarks"] = nlohmann::json::parse(to_json(l));
+  return j.dump();
+}
+
 std::string to_json(const MapQuality& q) {
   nlohmann::json j;
   j["resolution_m"] = q.resolution;

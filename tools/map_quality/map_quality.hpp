@@ -14,8 +14,10 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "basestation/mapper/grid.hpp"
+#include "common/messages.hpp"
 #include "hil/world/world.hpp"
 
 namespace cairn::tools {
@@ -53,6 +55,22 @@ MapQuality evaluate(const mapper::ClassGrid& map, const hil::World& world, const
 
 std::string to_text(const MapQuality& q);
 std::string to_json(const MapQuality& q);
+
+/// Mapped landmarks against the world's poles (the base's global frame is the world's on
+/// the HIL bench): each pole is paired with the nearest unpaired landmark within match_m,
+/// nearest pairs first.
+struct LandmarkQuality {
+  std::size_t poles = 0, landmarks = 0, matched = 0;
+  std::size_t spurious = 0;  // landmarks paired with no pole
+  std::size_t missing = 0;   // poles paired with no landmark (never seen, or too far off)
+  double error_mean_m = 0, error_rms_m = 0, error_max_m = 0;  // over the pairs
+};
+LandmarkQuality evaluate_landmarks(const std::vector<msg::Landmark>& landmarks, const std::vector<Vec2>& poles,
+                                   double match_m = 1.0);
+std::string to_text(const LandmarkQuality& q);
+std::string to_json(const LandmarkQuality& q);
+/// The map's JSON with the landmarks' under "landmarks".
+std::string to_json(const MapQuality& q, const LandmarkQuality& l);
 
 /// The truth as a map (wall -> obstacle, free -> clear, other -> unknown): what a
 /// perfect mapper would produce.
