@@ -136,9 +136,15 @@ std::string trim(std::string s) {
 std::vector<msg::Landmark> read_landmarks_json(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_landmarks_json(text.str(), path);
+}
+
+std::vector<msg::Landmark> parse_landmarks_json(std::string_view text, const std::string& path) {
   std::vector<msg::Landmark> out;
   try {
-    const nlohmann::json j = nlohmann::json::parse(in);
+    const nlohmann::json j = nlohmann::json::parse(text);
     for (const auto& l : j.at("landmarks")) {
       msg::Landmark m;
       m.id = l.at("id").get<std::uint32_t>();

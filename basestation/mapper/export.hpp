@@ -12,6 +12,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "basestation/mapper/grid.hpp"
@@ -48,6 +49,8 @@ void write_landmarks_json(const std::vector<msg::Landmark>& landmarks, const std
 /// Reads what write_landmarks_json wrote (id, x, y, cov); throws std::runtime_error naming
 /// the file and the problem.
 std::vector<msg::Landmark> read_landmarks_json(const std::string& path);
+/// The same from text; `name` prefixes the error (the fuzz target's entry).
+std::vector<msg::Landmark> parse_landmarks_json(std::string_view text, const std::string& name);
 
 /// Reads a map_server map (YAML + the PGM it names, relative to the YAML's folder) the
 /// way map_server's loader does: occ = (255 - v) / 255 (v / 255 with negate), occ >

@@ -16,6 +16,15 @@ World World::load(const std::string& path) {
   return parse(ss.str(), path);
 }
 
+namespace {
+
+constexpr double kMaxRandomCells = 1e6;
+
+// A robot id as the world file may give it: an integer in the range of the wire's uint16.
+bool robot_id(double v) { return v >= 1 && v <= 65535 && v == std::floor(v); }
+
+}  // namespace
+
 World World::parse(const std::string& text, const std::string& name) {
   World w;
   w.name_ = name;
@@ -56,11 +65,12 @@ World World::parse(const std::string& text, const std::string& name) {
       w.circles_.push_back({{v[0], v[1]}, v[2], kw == "pole", 0});
     } else if (kw == "start") {
       const auto v = nums(4);
+      if (!robot_id(v[0])) fail("start: the robot id must be an integer in 1..65535");
       w.starts_.emplace_back(static_cast<int>(v[0]), Pose2{v[1], v[2], v[3]});
     } else if (kw == "route") {
       // route ID X1 Y1 [X2 Y2 ...]: a variable count, so not through nums().
       double id = 0;
-      if (!(ls >> id) || id < 1 || id != std::floor(id)) fail("route: expects a robot id (an integer >= 1) first");
+      if (!(ls >> id) || !robot_id(id)) fail("route: expects a robot id (an integer in 1..65535) first");
       std::vector<Vec2> pts;
       double x = 0, y = 0;
       while (ls >> x) {
@@ -74,11 +84,14 @@ World World::parse(const std::string& text, const std::string& name) {
     } else if (kw == "random") {
       const auto v = nums(3);
       if (v[0] <= 0 || v[0] >= 0.6 || v[2] <= 0) fail("random FRACTION SEED CELL: fraction in (0, 0.6), cell > 0");
+      if (v[1] < 0 || v[1] > 1e15 || v[1] != std::floor(v[1])) fail("random: the seed must be an integer in 0..1e15");
       // Square obstacles on a grid of CELL-sized cells, keeping robots' starts free.
       std::mt19937_64 rng(static_cast<std::uint64_t>(v[1]));
       const double cell = v[2];
-      const int nx = static_cast<int>((w.bounds_.xmax - w.bounds_.xmin) / cell);
-      const int ny = static_cast<int>((w.bounds_.ymax - w.bounds_.ymin) / cell);
+      const double fx = (w.bounds_.xmax - w.bounds_.xmin) / cell, fy = (w.bounds_.ymax - w.bounds_.ymin) / cell;
+      // Checked in floating point first: the counts must fit an int and the grid memory.
+      if (!(fx * fy <= kMaxRandomCells)) fail("random: bounds / cell give more than 10^6 cells");
+      const int nx = static_cast<int>(fx), ny = static_cast<int>(fy);
       const int want = static_cast<int>(v[0] * nx * ny);
       std::vector<char> used(static_cast<std::size_t>(nx * ny), 0);
       int placed = 0, tries = 0;

@@ -11,6 +11,9 @@
 //   start   ID X Y THETA                 a robot's start pose
 //   route   ID X1 Y1 X2 Y2 ...           a scripted path for robot ID (world frame; lines add up)
 //   random  FRACTION SEED CELL           fill the bounds with square obstacles covering FRACTION
+//
+// Robot ids are integers in 1..65535 (the wire's); `random` takes an integer SEED and at
+// most 10^6 cells of CELL in the bounds. tests/fuzz/files_fuzz.cpp feeds it any bytes.
 #pragma once
 
 #include <cstdint>

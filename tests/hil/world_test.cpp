@@ -62,6 +62,15 @@ TEST(World, ErrorsNameFileAndLine) {
   EXPECT_NE(error_of("pole 1 2 -1\n").find("radius must be positive"), std::string::npos);
   EXPECT_NE(error_of("wall 0 0 1 1 extra\n").find("unexpected 'extra'"), std::string::npos);
   EXPECT_NE(error_of("wall 0 0 nan 1\n").find("expects 4 numbers"), std::string::npos);
+  // Numbers that used to reach an int conversion unchecked (undefined behaviour) or a grid
+  // of 10^13 cells (an allocation that kills the process).
+  EXPECT_NE(error_of("start 1e300 1 1 0\n").find("w.world:1: start: the robot id"), std::string::npos);
+  EXPECT_NE(error_of("start 1.5 1 1 0\n").find("start: the robot id"), std::string::npos);
+  EXPECT_NE(error_of("route 1e12 1 1\n").find("route: expects a robot id"), std::string::npos);
+  EXPECT_NE(error_of("bounds 0 0 10 10\nrandom 0.3 1 1e-6\n").find("w.world:2: random: bounds / cell give more"), std::string::npos);
+  EXPECT_NE(error_of("random 0.3 -5 1\n").find("random: the seed"), std::string::npos);
+  const hil::World ok = hil::World::parse("bounds 0 0 10 10\nstart 65535 1 1 0\nrandom 0.2 7 1\n", "ok.world");
+  EXPECT_GT(ok.segments().size(), 0u);
 }
 
 TEST(World, ShippedWorldsLoad) {
