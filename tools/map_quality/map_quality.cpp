@@ -241,26 +241,9 @@ std::string to_text(const LandmarkQuality& q) {
   return o.str();
 }
 
-std::string to_json(const LandmarkQuality& q) {
-  nlohmann::json j;
-  j["poles"] = q.poles;
-  j["landmarks"] = q.landmarks;
-  j["matched"] = q.matched;
-  j["spurious"] = q.spurious;
-  j["missing"] = q.missing;
-  j["error_mean_m"] = q.error_mean_m;
-  j["error_rms_m"] = q.error_rms_m;
-  j["error_max_m"] = q.error_max_m;
-  return j.dump();
-}
+namespace {
 
-std::string to_json(const MapQuality& q, const LandmarkQuality& l) {
-  nlohmann::json j = nlohmann::json::parse(to_json(q));
-  j["landmarks"] = nlohmann::json::parse(to_json(l));
-  return j.dump();
-}
-
-std::string to_json(const MapQuality& q) {
+nlohmann::json json_of(const MapQuality& q) {
   nlohmann::json j;
   j["resolution_m"] = q.resolution;
   j["truth_free_cells"] = q.free_cells;
@@ -281,7 +264,32 @@ std::string to_json(const MapQuality& q) {
   j["wall_offset_max_m"] = q.wall_offset_max_m;
   j["wall_offset_mean_cells"] = q.resolution > 0 ? q.wall_offset_mean_m / q.resolution : 0.0;
   j["wall_offset_max_cells"] = q.resolution > 0 ? q.wall_offset_max_m / q.resolution : 0.0;
-  return j.dump(2);
+  return j;
 }
+
+nlohmann::json json_of(const LandmarkQuality& q) {
+  nlohmann::json j;
+  j["poles"] = q.poles;
+  j["landmarks"] = q.landmarks;
+  j["matched"] = q.matched;
+  j["spurious"] = q.spurious;
+  j["missing"] = q.missing;
+  j["error_mean_m"] = q.error_mean_m;
+  j["error_rms_m"] = q.error_rms_m;
+  j["error_max_m"] = q.error_max_m;
+  return j;
+}
+
+}  // namespace
+
+std::string to_json(const LandmarkQuality& q) { return json_of(q).dump(); }
+
+std::string to_json(const MapQuality& q, const LandmarkQuality& l) {
+  nlohmann::json j = json_of(q);
+  j["landmarks"] = json_of(l);
+  return j.dump();
+}
+
+std::string to_json(const MapQuality& q) { return json_of(q).dump(2); }
 
 }  // namespace cairn::tools
