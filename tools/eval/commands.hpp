@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace cairn::eval {
 
@@ -38,5 +39,20 @@ struct ScansCmdOptions {
   bool json = false;
 };
 int scans(const ScansCmdOptions& o);
+
+struct ExploreCmdOptions {
+  std::string world;
+  std::vector<int> robots{1, 2, 3};
+  int runs = 10;
+  std::string mode = "coordinated";  // coordinated | uncoordinated | both (uncoordinated for counts > 1)
+  std::uint64_t seed = 1;            // run k uses seed + k, for every robot count and mode
+  bool random_maps = false;          // run k on the world's `random` line with its seed + k
+  double duration = 900;             // simulated s per run (the cap)
+  int jobs = 0;                      // runs at once; 0: one per core
+  std::string out_dir;               // default explore-<world name>
+  bool verbose = false;              // the fleets' log lines too
+  bool json = false;
+};
+int explore(const ExploreCmdOptions& o);
 
 }  // namespace cairn::eval

@@ -62,12 +62,36 @@ int main(int argc, char** argv) {
   sn->add_flag("--no-mapper", sc.no_mapper, "skip the local-mapper drift run");
   sn->add_flag("--json", sc.json, "print JSON");
 
+  ExploreCmdOptions ex;
+  auto* xp = app.add_subcommand("explore",
+                                "The exploration seed's experiments on cairn-sim's fleet: runs x robot counts of one world, "
+                                "times to 50/90/95/100 % coverage, completed and failed runs, plots (docs/explore.md)");
+  xp->add_option("--world", ex.world, "world file (the HIL format, docs/hil.md)")->required()->check(CLI::ExistingFile);
+  xp->add_option("--robots", ex.robots, "robot counts, e.g. 1,2,3")->delimiter(',')->capture_default_str()
+      ->check(CLI::Range(1, 50));
+  xp->add_option("--runs", ex.runs, "runs per robot count (run k: seed + k)")->capture_default_str()->check(CLI::Range(1, 1000));
+  xp->add_option("--mode", ex.mode,
+                 "coordinated (the seed's discount), uncoordinated (each robot its own best item), or both "
+                 "(uncoordinated for counts above 1)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"coordinated", "uncoordinated", "both"}));
+  xp->add_option("--seed", ex.seed, "seed of run 0")->capture_default_str();
+  xp->add_flag("--random-maps", ex.random_maps,
+               "run k on another map of the world's kind: its 'random' line's seed + k (the seed's environments D, E)");
+  xp->add_option("--duration", ex.duration, "simulated seconds per run at most")->capture_default_str()
+      ->check(CLI::Range(10.0, 1e5));
+  xp->add_option("--jobs", ex.jobs, "runs at once (default: one per core)")->check(CLI::Range(1, 64));
+  xp->add_option("--out", ex.out_dir, "output directory (default explore-WORLD)");
+  xp->add_flag("--verbose", ex.verbose, "print the simulated robots' and base's warnings too");
+  xp->add_flag("--json", ex.json, "print the summary as JSON");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*cp) return ccml_paper(paper);
     if (*vn) return vehicles_needed_cmd(initial, desired, vn_json);
     if (*mc) return mrclam(mr);
     if (*sn) return scans(sc);
+    if (*xp) return explore(ex);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "cairn-eval: error: %s\n", e.what());
     return 1;

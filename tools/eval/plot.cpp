@@ -15,7 +15,11 @@ bool render_png(const Figure& fig, const std::string& dir, const std::string& na
     std::ofstream d(dat);
     for (const auto& s : fig.series) {
       d << "# " << s.title << "\n";
-      for (std::size_t i = 0; i < s.x.size(); ++i) d << s.x[i] << " " << s.y[i] << "\n";
+      for (std::size_t i = 0; i < s.x.size(); ++i) {
+        d << s.x[i] << " " << s.y[i];
+        if (!s.err.empty()) d << " " << s.err[i];
+        d << "\n";
+      }
       d << "\n\n";
     }
   }
@@ -29,7 +33,7 @@ bool render_png(const Figure& fig, const std::string& dir, const std::string& na
     for (const auto& e : fig.extra) g << e << "\n";
     g << "plot ";
     for (std::size_t i = 0; i < fig.series.size(); ++i) {
-      g << (i ? ", " : "") << "'" << dat << "' index " << i << " using 1:2 with " << fig.series[i].style << " title '"
+      g << (i ? ", " : "") << "'" << dat << "' index " << i << " using " << (fig.series[i].err.empty() ? "1:2" : "1:2:3") << " with " << fig.series[i].style << " title '"
         << fig.series[i].title << "'";
     }
     g << "\n";

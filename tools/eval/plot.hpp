@@ -12,6 +12,7 @@ struct Series {
   std::string title;
   std::vector<double> x, y;
   std::string style = "lines";  // gnuplot "with" clause
+  std::vector<double> err = {};  // if set, a third column (e.g. style "yerrorbars")
 };
 
 struct Figure {

@@ -53,6 +53,14 @@ struct FleetSimConfig {
   Nanos coverage_period = 0;
 };
 
+/// The speeds cairn-sim's command line and `cairn-eval explore` run the simulated robots at:
+/// the safety cap raised to 1 m/s (the built-in robot configuration caps at 0.8 m/s) and
+/// the scripted tours at 0.8 m/s. Exploration follows paths at ExploreConfig::follower's speed.
+inline void set_tool_speeds(FleetSimConfig* cfg) {
+  cfg->robot.safety.max_v = 1.0;
+  cfg->follower.speed = 0.8;
+}
+
 struct CoverageSample {
   double t_s = 0;
   double coverage = 0, agreement = 0;

@@ -227,8 +227,7 @@ int main(int argc, char** argv) {
       const firmware::RobotConfig rc = firmware::load_robot_config(robot_config);
       cfg.robot = rc.executive;
     }
-    cfg.robot.safety.max_v = 1.0;
-    cfg.follower.speed = 0.8;
+    sim::set_tool_speeds(&cfg);
     return run(cfg, out, json);
   });
 }

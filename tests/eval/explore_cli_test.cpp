@@ -1,0 +1,121 @@
+// cairn-eval explore end to end: a short grid on the office, its summary against its own
+// per-run records, and the random maps of environments D and E.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "tests/support/subprocess.hpp"
+
+namespace cairn {
+namespace {
+
+namespace fs = std::filesystem;
+const std::string kWorlds = std::string(CAIRN_SOURCE_DIR_STR) + "/hil/worlds/";
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+int run(const std::vector<std::string>& args, std::string* output = nullptr) {
+  std::vector<std::string> argv = {CAIRN_EVAL_BIN, "explore"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  testing::Subprocess p(argv);
+  const int rc = p.wait(std::chrono::minutes(4));
+  if (output) *output = p.output();
+  return rc;
+}
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("cairn-explore-cli-" + name + "-" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  return d;
+}
+
+// The first time in a run's coverage.csv at which coverage reached `level`, or -1.
+double first_time_at(const fs::path& csv, double level) {
+  std::ifstream f(csv);
+  std::string line;
+  std::getline(f, line);  // header
+  while (std::getline(f, line)) {
+    double t = 0, c = 0;
+    if (std::sscanf(line.c_str(), "%lf,%lf", &t, &c) == 2 && c >= level) return t;
+  }
+  return -1;
+}
+
+TEST(ExploreCli, OfficeOneAndTwoRobotsBothModes) {
+  const fs::path out = fresh_dir("office");
+  std::string log;
+  ASSERT_EQ(run({"--world", kWorlds + "office.world", "--robots", "1,2", "--runs", "1", "--duration", "120", "--mode",
+                 "both", "--seed", "3", "--out", out.string()},
+                &log),
+            0)
+      << log;
+  const auto s = nlohmann::json::parse(slurp(out / "summary.json"));
+  // One robot once (both modes are the same run), two robots in both modes.
+  ASSERT_EQ(s["groups"].size(), 3u) << s.dump(2);
+  ASSERT_EQ(s["runs"].size(), 3u);
+  const auto& g1 = s["groups"][0];
+  const auto& g2 = s["groups"][1];
+  const auto& u2 = s["groups"][2];
+  EXPECT_EQ(g1["mode"], "coordinated");
+  EXPECT_EQ(g1["robots"], 1);
+  EXPECT_EQ(g2["robots"], 2);
+  EXPECT_EQ(u2["mode"], "uncoordinated");
+  // Every group reached half the office within 120 s, two robots sooner than one
+  // (one robot takes about 80 s, two about 45 s).
+  for (const auto& g : s["groups"]) ASSERT_EQ(g["time_to_coverage_s"]["50"]["reached"], 1) << g.dump(2);
+  EXPECT_LT(g2["time_to_coverage_s"]["50"]["mean"].get<double>(), 0.8 * g1["time_to_coverage_s"]["50"]["mean"].get<double>());
+  // No run explored the whole office in 120 s, so no speedup to 95 % can be claimed.
+  EXPECT_TRUE(s["speedup_to_95"]["2_vs_1"].is_null());
+  // The summary's times are the runs' own records, the maps are sane and written.
+  for (const auto& r : s["runs"]) {
+    const std::string name =
+        r["mode"].get<std::string>() + "-r" + std::to_string(r["robots"].get<int>()) + "-run0";
+    const fs::path dir = out / "runs" / name;
+    EXPECT_DOUBLE_EQ(first_time_at(dir / "coverage.csv", 0.5), r["time_to_coverage_s"]["50"].get<double>()) << name;
+    EXPECT_TRUE(fs::is_regular_file(dir / "map.png")) << name;
+    EXPECT_GE(r["agreement"].get<double>(), 0.85) << name;
+    EXPECT_FALSE(r["failed"].get<bool>());
+    EXPECT_EQ(r["seed"], 3);
+  }
+  EXPECT_TRUE(fs::is_regular_file(out / "coverage.png"));
+  EXPECT_TRUE(fs::is_regular_file(out / "time_to_coverage.png"));
+  EXPECT_NE(slurp(out / "table.md").find("| uncoordinated | 2 | 1 |"), std::string::npos);
+  fs::remove_all(out);
+}
+
+TEST(ExploreCli, RandomMapsAreOtherInstancesOfTheWorld) {
+  const fs::path out = fresh_dir("random");
+  std::string log;
+  ASSERT_EQ(run({"--world", kWorlds + "random15.world", "--random-maps", "--robots", "1", "--runs", "2", "--duration",
+                 "10", "--out", out.string()},
+                &log),
+            0)
+      << log;
+  const std::string m0 = slurp(out / "worlds" / "map0.world"), m1 = slurp(out / "worlds" / "map1.world");
+  EXPECT_NE(m0.find("random 0.15 42 1.0"), std::string::npos) << m0;  // run 0: the shipped map
+  EXPECT_NE(m1.find("random 0.15 43 1.0"), std::string::npos) << m1;
+  const auto s = nlohmann::json::parse(slurp(out / "summary.json"));
+  ASSERT_EQ(s["runs"].size(), 2u);
+  EXPECT_NE(s["runs"][0]["world"], s["runs"][1]["world"]);
+  fs::remove_all(out);
+}
+
+TEST(ExploreCli, RefusesRandomMapsOfAWorldWithoutRandomObstacles) {
+  const fs::path out = fresh_dir("refuse");
+  std::string log;
+  EXPECT_EQ(run({"--world", kWorlds + "office.world", "--random-maps", "--runs", "2", "--out", out.string()}, &log), 1);
+  EXPECT_NE(log.find("has no 'random FRACTION SEED CELL' line"), std::string::npos) << log;
+  fs::remove_all(out);
+}
+
+}  // namespace
+}  // namespace cairn
