@@ -84,11 +84,15 @@ TEST(World, ShippedWorldsLoad) {
     EXPECT_FALSE(w.collides(w.start(1)->translation(), 0.25)) << "robot 1 starts inside an obstacle";
     ++n;
   }
-  EXPECT_EQ(n, 4);
-  // The random world covers about 15% of its area with obstacles (4 segments per cell).
+  EXPECT_EQ(n, 5);
+  // The random worlds cover their stated fraction of the area with obstacles (4 segments
+  // per cell): D 15 % of 1 m cells, E 10 % of 0.5 m cells.
   const World r = World::load((dir / "random15.world").string());
   const double cells = static_cast<double>(r.segments().size() - 4) / 4.0;
   EXPECT_NEAR(cells / 400.0, 0.15, 0.01);
+  const World e = World::load((dir / "random_clutter.world").string());
+  const double small_cells = static_cast<double>(e.segments().size() - 4) / 4.0;
+  EXPECT_NEAR(small_cells / 1600.0, 0.10, 0.01);
 }
 
 }  // namespace
