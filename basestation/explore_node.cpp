@@ -11,8 +11,34 @@ ExploreNode::ExploreNode(const dds::Participant& pp, const explore::AllocatorCon
     : allocator_(config),
       bid_topic_(pp),
       task_topic_(pp),
-      bid_reader_(pp, bid_topic_, dds::state_qos(1)),     // the latest bid of each robot
-      task_writer_(pp, task_topic_, dds::latched_qos()) {  // a robot that restarts gets its task
+      visit_topic_(pp),
+      bid_reader_(pp, bid_topic_, dds::state_qos(1)),      // the latest bid of each robot
+      task_writer_(pp, task_topic_, dds::latched_qos()),   // a robot that restarts gets its task
+      visit_reader_(pp, visit_topic_, dds::state_qos(1)) {  // volatile: never an old request
+}
+
+void ExploreNode::take_visits(Nanos now, const Fusion& fusion) {
+  msg::PoseCorrection c;
+  visit_reader_.take([&](const cairn_VisitRequest& d, const dds_sample_info_t&) {
+    msg::VisitRequest v;
+    (void)dds::from_dds(d, &v);
+    VisitVerdict verdict = check_visit(v, fusion.correction(v.robot_id, 0, &c));
+    if (verdict == VisitVerdict::kAccepted && !allocator_.request_visit(v.robot_id, Vec2(v.x, v.y), now)) {
+      verdict = VisitVerdict::kRobotLost;
+    }
+    if (verdict == VisitVerdict::kAccepted) {
+      ++counters_.visits_taken;
+      CAIRN_LOG_INFO("explore", "visit: robot {} to ({:.2f}, {:.2f}), asked by {}", v.robot_id, v.x, v.y,
+                     v.issued_by.data());
+      return;
+    }
+    // Logged when the count reaches a power of two: a flood cannot flood the log.
+    const std::uint64_t n = ++counters_.visits_refused;
+    if ((n & (n - 1)) == 0) {
+      CAIRN_LOG_WARN("explore", "visit request for robot {} refused: {} ({} refused so far)", v.robot_id,
+                     visit_verdict_text(verdict), n);
+    }
+  });
 }
 
 bool ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet) {
@@ -32,6 +58,7 @@ bool ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet) {
   for (const std::uint16_t id : fusion.robots()) {
     if (fusion.correction(id, 0, &c)) allocator_.on_robot_pose(id, c.global_pose.translation(), now);
   }
+  take_visits(now, fusion);
   bid_reader_.take([&](const cairn_Bid& d, const dds_sample_info_t&) {
     msg::Bid bid;
     if (!dds::from_dds(d, &bid)) ++counters_.bids_clamped;
@@ -64,12 +91,14 @@ std::string ExploreNode::summary() const {
   char line[320];
   std::snprintf(line, sizeof line,
                 "explore: %s; bids %llu (unlocalised %llu, rejected %llu), rounds %llu, assigned %llu, kept %llu, "
-                "idles %llu, timeouts %llu, written %llu (failed %llu)",
+                "idles %llu, timeouts %llu, visits %llu (refused %llu), written %llu (failed %llu)",
                 allocator_.explored() ? "explored" : "exploring", static_cast<unsigned long long>(counters_.bids_taken),
                 static_cast<unsigned long long>(counters_.bids_unlocalised),
                 static_cast<unsigned long long>(a.bids_rejected), static_cast<unsigned long long>(a.rounds),
                 static_cast<unsigned long long>(a.explore_assigned), static_cast<unsigned long long>(a.tasks_kept),
                 static_cast<unsigned long long>(a.idles), static_cast<unsigned long long>(a.timeouts),
+                static_cast<unsigned long long>(counters_.visits_taken),
+                static_cast<unsigned long long>(counters_.visits_refused),
                 static_cast<unsigned long long>(counters_.assignments_written),
                 static_cast<unsigned long long>(counters_.write_failures));
   return line;

@@ -3,7 +3,9 @@
 // taken only from a robot the fusion has localised (its global pose is what the
 // allocator's progress monitor watches; an unknown id cannot grow the allocator's
 // tables); others are counted. A robot the fleet reports lost gives its task back, and
-// its return gives it a link again.
+// its return gives it a link again. An operator's VisitRequest (`cairn-base --visit`, the
+// web view) is taken only for a localised robot and a finite target within reach of any
+// building; the allocator then sends the robot there and covers for its frontier.
 #pragma once
 
 #include <map>
@@ -11,6 +13,7 @@
 #include <vector>
 
 #include "basestation/explore/task_allocator.hpp"
+#include "basestation/explore/visit_check.hpp"
 #include "basestation/fleet.hpp"
 #include "basestation/fusion.hpp"
 #include "common/dds/topics.hpp"
@@ -22,12 +25,15 @@ struct ExploreNodeCounters {
   std::uint64_t bids_unlocalised = 0;  // from a robot the fusion has no estimate of
   std::uint64_t bids_clamped = 0;      // more items than a Bid holds: cut, still used
   std::uint64_t assignments_written = 0, write_failures = 0;
+  std::uint64_t visits_taken = 0, visits_refused = 0;
 };
+
+
 
 class ExploreNode {
  public:
   ExploreNode(const dds::Participant& pp, const explore::AllocatorConfig& config);
-  /// Takes the bids that arrived, tells the allocator every localised robot's global pose
+  /// Takes the visit requests and bids that arrived, tells the allocator every localised robot's global pose
   /// and every change of link, runs it and writes what it assigns. Never blocks. Returns
   /// true in the poll where exploration became complete (once per completion).
   bool poll(Nanos now, const Fusion& fusion, const Fleet& fleet);
@@ -40,11 +46,15 @@ class ExploreNode {
   explore::TaskAllocator allocator_;
   dds::Topic<cairn_Bid> bid_topic_;
   dds::Topic<cairn_TaskAssignment> task_topic_;
+  dds::Topic<cairn_VisitRequest> visit_topic_;
   dds::Reader<cairn_Bid> bid_reader_;
   dds::Writer<cairn_TaskAssignment> task_writer_;
+  dds::Reader<cairn_VisitRequest> visit_reader_;
   std::map<std::uint16_t, bool> alive_;  // the link state last told to the allocator
   std::vector<msg::TaskAssignment> out_;
   ExploreNodeCounters counters_;
+
+  void take_visits(Nanos now, const Fusion& fusion);
 };
 
 }  // namespace cairn::base

@@ -3,6 +3,7 @@
 
 #include <CLI/CLI.hpp>
 #include <atomic>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -13,6 +14,7 @@
 #include "basestation/fleet.hpp"
 #include "basestation/fusion_node.hpp"
 #include "basestation/grid_map_node.hpp"
+#include "basestation/visit_request.hpp"
 #include "cairn.h"
 #include "common/dds/topics.hpp"
 #include "common/log.hpp"
@@ -172,6 +174,21 @@ int reset_estop(const std::string& config_path, int robot) {
   return r.ok() ? 0 : 1;
 }
 
+// `cairn-base --visit R X Y`: the operator asks robot R to visit (X, Y) in the global
+// frame; delivered to the running base's executive and confirmed by the robot's new task
+// (basestation/visit_request.hpp).
+int visit(const std::string& config_path, const std::vector<double>& args) {
+  const base::BaseConfig cfg = base::load_base_config(config_path);
+  dds::Participant pp(cfg.dds);
+  base::VisitRequestOptions o;
+  o.robot = static_cast<std::uint16_t>(args[0]);
+  o.target = Vec2(args[1], args[2]);
+  o.issued_by = "cairn-base " + cfg.name;
+  const base::VisitResult r = base::request_visit(pp, o);
+  std::fprintf(r.ok() ? stdout : stderr, "cairn-base: %s\n", r.message.c_str());
+  return r.ok() ? 0 : 1;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -189,8 +206,24 @@ int main(int argc, char** argv) {
   app.add_option("--reset-estop", reset_robot,
                  "send robot ID an e-stop reset (its e-stop latches; it must be released) and exit")
       ->check(CLI::Range(1, 250));
+  std::vector<double> visit_args;
+  app.add_option("--visit", visit_args,
+                 "ask the running base to send robot ID to X Y (global frame, m) now: its exploration task ends, the "
+                 "others cover for it, it rejoins exploration when it arrives or fails; waits for the robot's new task "
+                 "and exits (0: assigned)")
+      ->expected(3)
+      ->type_name("ID X Y")
+      ->excludes("--reset-estop");
   CLI11_PARSE(app, argc, argv);
   install_shutdown_handlers();
   if (reset_robot > 0) return run_program("cairn-base", [&] { return reset_estop(config_path, reset_robot); });
+  if (!visit_args.empty()) {
+    const double id = visit_args[0];
+    if (!(id >= 1 && id <= 65535 && id == std::floor(id)) || !std::isfinite(visit_args[1]) || !std::isfinite(visit_args[2])) {
+      std::fprintf(stderr, "cairn-base: --visit ID X Y: ID an integer 1..65535, X and Y finite metres\n");
+      return 2;
+    }
+    return run_program("cairn-base", [&] { return visit(config_path, visit_args); });
+  }
   return run_program("cairn-base", [&] { return run(config_path, duration); });
 }

@@ -146,6 +146,15 @@ struct SafetyReset {
   std::array<char, 32> issued_by{};  // terminated
 };
 
+/// An operator's request that one robot visit a place (tool or web view -> base).
+struct VisitRequest {
+  std::uint16_t robot_id = 0;
+  std::uint32_t seq = 0;
+  Nanos issued = 0;
+  double x = 0, y = 0;               // global frame
+  std::array<char, 32> issued_by{};  // terminated
+};
+
 struct Landmark {
   std::uint32_t id = 0;
   double x = 0, y = 0;
@@ -155,6 +164,7 @@ struct Landmark {
 static_assert(std::is_trivially_copyable_v<OdometryIncrement> && std::is_trivially_copyable_v<LaserScan> &&
               std::is_trivially_copyable_v<FeatureObservations> && std::is_trivially_copyable_v<PoseCorrection> &&
               std::is_trivially_copyable_v<TaskAssignment> && std::is_trivially_copyable_v<SafetyReset> &&
-              std::is_trivially_copyable_v<Landmark> && std::is_trivially_copyable_v<Bid>);
+              std::is_trivially_copyable_v<Landmark> && std::is_trivially_copyable_v<Bid> &&
+              std::is_trivially_copyable_v<VisitRequest>);
 
 }  // namespace cairn::msg

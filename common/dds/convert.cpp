@@ -24,6 +24,14 @@ int raw_enum(const E& field) {
   return v;
 }
 
+// A bounded copy of a text field into a terminated one: an unterminated source is cut at
+// the destination's size, never overrun.
+void copy_text(const char* from, std::size_t from_size, char* to, std::size_t to_size) {
+  std::size_t i = 0;
+  for (; i + 1 < to_size && i < from_size && from[i] != '\0'; ++i) to[i] = from[i];
+  to[i] = '\0';
+}
+
 template <std::size_t N>
 void copy_array(const std::array<double, N>& from, double (&to)[N]) {
   std::copy(from.begin(), from.end(), to);
@@ -180,18 +188,33 @@ void to_dds(const msg::SafetyReset& m, cairn_SafetyReset* out) {
   out->robot_id = m.robot_id;
   out->seq = m.seq;
   out->issued_ns = m.issued;
-  std::size_t i = 0;
-  for (; i + 1 < sizeof out->issued_by && i < m.issued_by.size() && m.issued_by[i] != '\0'; ++i) out->issued_by[i] = m.issued_by[i];
-  out->issued_by[i] = '\0';
+  copy_text(m.issued_by.data(), m.issued_by.size(), out->issued_by, sizeof out->issued_by);
+}
+
+void to_dds(const msg::VisitRequest& m, cairn_VisitRequest* out) {
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->issued_ns = m.issued;
+  out->x = m.x;
+  out->y = m.y;
+  copy_text(m.issued_by.data(), m.issued_by.size(), out->issued_by, sizeof out->issued_by);
 }
 
 bool from_dds(const cairn_SafetyReset& m, msg::SafetyReset* out) {
   out->robot_id = m.robot_id;
   out->seq = m.seq;
   out->issued = m.issued_ns;
-  std::size_t i = 0;  // a bounded copy: an unterminated string is cut, never overrun
-  for (; i + 1 < out->issued_by.size() && i < sizeof m.issued_by && m.issued_by[i] != '\0'; ++i) out->issued_by[i] = m.issued_by[i];
-  out->issued_by[i] = '\0';
+  copy_text(m.issued_by, sizeof m.issued_by, out->issued_by.data(), out->issued_by.size());
+  return true;
+}
+
+bool from_dds(const cairn_VisitRequest& m, msg::VisitRequest* out) {
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->issued = m.issued_ns;
+  out->x = m.x;  // the executive refuses a non-finite or far target
+  out->y = m.y;
+  copy_text(m.issued_by, sizeof m.issued_by, out->issued_by.data(), out->issued_by.size());
   return true;
 }
 

@@ -20,6 +20,7 @@ void to_dds(const msg::PoseCorrection& m, cairn_PoseCorrection* out);
 void to_dds(const msg::TaskAssignment& m, cairn_TaskAssignment* out);
 void to_dds(const msg::SafetyReset& m, cairn_SafetyReset* out);
 void to_dds(const msg::Bid& m, cairn_Bid* out);
+void to_dds(const msg::VisitRequest& m, cairn_VisitRequest* out);
 
 /// False when the sample had to be clamped (a count above capacity, an unknown enum).
 bool from_dds(const cairn_OdometryIncrement& m, msg::OdometryIncrement* out);
@@ -29,6 +30,7 @@ bool from_dds(const cairn_PoseCorrection& m, msg::PoseCorrection* out);
 bool from_dds(const cairn_TaskAssignment& m, msg::TaskAssignment* out);
 bool from_dds(const cairn_SafetyReset& m, msg::SafetyReset* out);
 bool from_dds(const cairn_Bid& m, msg::Bid* out);
+bool from_dds(const cairn_VisitRequest& m, msg::VisitRequest* out);
 
 /// Pages a map of `count` landmarks takes (at least one: an empty map is one empty page).
 inline std::size_t feature_map_pages(std::size_t count) { return count == 0 ? 1 : (count + msg::kMaxLandmarks - 1) / msg::kMaxLandmarks; }

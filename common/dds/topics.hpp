@@ -25,6 +25,7 @@ CAIRN_TOPIC(SafetyReset, "cairn_safety_reset")
 CAIRN_TOPIC(MapTile, "cairn_map_tile")
 CAIRN_TOPIC(Bid, "cairn_bid")
 CAIRN_TOPIC(FeatureMap, "cairn_feature_map")
+CAIRN_TOPIC(VisitRequest, "cairn_visit_request")
 
 #undef CAIRN_TOPIC
 

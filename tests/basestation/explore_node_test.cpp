@@ -8,10 +8,14 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
+#include <future>
+#include <limits>
 #include <map>
 
 #include "common/dds/convert.hpp"
 #include "common/dds/profile.hpp"
+#include "basestation/visit_request.hpp"
 
 namespace cairn::base {
 namespace {
@@ -159,6 +163,147 @@ TEST(ExploreNode, PollReportsTheEndOfExplorationOnce) {
   for (int k = 1; k <= 40; ++k) completions += node.poll(now + k * 50 * kNanosPerMilli, fusion, fleet) ? 1 : 0;
   EXPECT_TRUE(node.allocator().explored()) << node.summary();
   EXPECT_EQ(completions, 1);
+}
+
+// "Robot 1, visit (2.5, -1.5)" from the operator's tool while both robots explore: the
+// tool's request reaches the executive, robot 1 gets a GOTO task there (the tool sees it
+// and says so), and robot 2 takes over the frontier robot 1 held. Requests the executive
+// must refuse (a robot it has not localised, a NaN or far target) change nothing and are
+// counted; with no base the tool says so.
+TEST(ExploreNode, VisitRequestSendsTheRobotThereAndTheOthersCoverForIt) {
+  dds::Participant pp(dds::loopback_profile(kDomain + 2));
+  Fusion fusion(two_robots());
+  localise(&fusion, 1);
+  localise(&fusion, 2);
+  Fleet fleet(3 * kNanosPerSecond, nullptr, FleetAdmission{{1, 2}, 8, {}});
+  auto& clock = MonotonicClock::instance();
+  for (std::uint16_t id : {std::uint16_t{1}, std::uint16_t{2}}) fleet.on_status(id, "r", "running", 1, clock.now());
+  explore::AllocatorConfig cfg;
+  cfg.bid_wait = 100 * kNanosPerMilli;
+  ExploreNode node(pp, cfg);
+
+  dds::Participant robots(dds::loopback_profile(kDomain + 2));
+  dds::Topic<cairn_Bid> bid_topic(robots);
+  dds::Writer<cairn_Bid> bids(robots, bid_topic, dds::state_qos(1));
+  ASSERT_TRUE(bids.wait_for_readers(1, 5 * kNanosPerSecond));
+  msg::Bid b1, b2;  // as in the first test: 1 takes A (6, 2), 2 takes B (-6, 6)
+  b1.robot_id = 1;
+  b1.seq = 1;
+  b1.n_items = 1;
+  b1.items[0] = item(6, 2, 300, 6, 2);
+  b2.robot_id = 2;
+  b2.seq = 1;
+  b2.n_items = 2;
+  b2.items[0] = item(6, 2, 300, 6.5, 2);
+  b2.items[1] = item(-6, 6, 150, 6, 2);
+  for (const msg::Bid* b : {&b1, &b2}) {
+    cairn_Bid d{};
+    dds::to_dds(*b, &d);
+    ASSERT_TRUE(bids.write(d));
+  }
+  auto task_of = [&](std::uint16_t id) { return node.allocator().task(id); };
+  const Nanos end = clock.now() + 5 * kNanosPerSecond;
+  while (!(task_of(1) && task_of(1)->kind == msg::TaskKind::kExplore && task_of(2) &&
+           task_of(2)->kind == msg::TaskKind::kExplore) &&
+         clock.now() < end) {
+    node.poll(clock.now(), fusion, fleet);
+    usleep(5000);
+  }
+  ASSERT_TRUE(task_of(2) && task_of(2)->target.isApprox(Vec2(-6, 6))) << node.summary();
+
+  // The operator's tool, on its own participant, while the base keeps polling.
+  dds::Participant tool(dds::loopback_profile(kDomain + 2));
+  auto poll_while = [&](std::future<VisitResult>& f) {
+    while (f.wait_for(std::chrono::milliseconds(5)) != std::future_status::ready) node.poll(clock.now(), fusion, fleet);
+    return f.get();
+  };
+  VisitRequestOptions o;
+  o.robot = 1;
+  o.target = Vec2(2.5, -1.5);
+  o.issued_by = "explore_node_test";
+  auto visit = std::async(std::launch::async, [&] { return request_visit(tool, o); });
+  const VisitResult r = poll_while(visit);
+  ASSERT_TRUE(r.ok()) << r.message << "; " << node.summary();
+  EXPECT_EQ(r.sent, 1);
+  EXPECT_NE(r.message.find("assigned as task"), std::string::npos) << r.message;
+  ASSERT_TRUE(task_of(1));
+  EXPECT_EQ(task_of(1)->kind, msg::TaskKind::kGoto);
+  EXPECT_EQ(task_of(1)->task_id, r.task_id);
+  EXPECT_TRUE(task_of(1)->target.isApprox(Vec2(2.5, -1.5)));
+  EXPECT_EQ(node.counters().visits_taken, 1u);
+  EXPECT_EQ(node.allocator().counters().visits_requested, 1u);
+  // Robot 2 covers for robot 1: the next round (after the wait for bids) gives it A.
+  const Nanos cover_end = clock.now() + 5 * kNanosPerSecond;
+  while (!task_of(2)->target.isApprox(Vec2(6, 2)) && clock.now() < cover_end) {
+    node.poll(clock.now(), fusion, fleet);
+    usleep(5000);
+  }
+  EXPECT_TRUE(task_of(2)->target.isApprox(Vec2(6, 2))) << task_of(2)->target.transpose() << "; " << node.summary();
+  EXPECT_EQ(task_of(1)->kind, msg::TaskKind::kGoto);  // still on its visit
+
+  // Refused: robot 9 is not localised (the tool reports no confirmation); NaN and far
+  // targets written raw. None changes robot 1's visit.
+  o.robot = 9;
+  o.timeout = 1500 * kNanosPerMilli;
+  o.confirm_wait = 500 * kNanosPerMilli;
+  auto refused = std::async(std::launch::async, [&] { return request_visit(tool, o); });
+  const VisitResult rr = poll_while(refused);
+  EXPECT_EQ(rr.outcome, VisitOutcome::kUnconfirmed) << rr.message;
+  EXPECT_GE(rr.sent, 2);  // it retried
+  EXPECT_NE(rr.message.find("not localised"), std::string::npos) << rr.message;
+  dds::Topic<cairn_VisitRequest> visit_topic(tool);
+  dds::Writer<cairn_VisitRequest> raw(tool, visit_topic, dds::state_qos(1));
+  ASSERT_TRUE(raw.wait_for_readers(1, 5 * kNanosPerSecond));
+  const std::uint64_t refused_before = node.counters().visits_refused;
+  EXPECT_EQ(refused_before, static_cast<std::uint64_t>(rr.sent));
+  // One at a time: the reader keeps the latest request per robot (a newer one replaces an
+  // older one not yet taken).
+  std::uint64_t expected = refused_before;
+  for (const Vec2& target : {Vec2(std::nan(""), 1.0), Vec2(1.0, std::numeric_limits<double>::infinity()), Vec2(2e4, 0.0)}) {
+    cairn_VisitRequest d{};
+    d.robot_id = 2;
+    d.seq = 1;
+    d.x = target.x();
+    d.y = target.y();
+    ASSERT_TRUE(raw.write(d));
+    ++expected;
+    const Nanos refuse_end = clock.now() + 5 * kNanosPerSecond;
+    while (node.counters().visits_refused < expected && clock.now() < refuse_end) {
+      node.poll(clock.now(), fusion, fleet);
+      usleep(5000);
+    }
+  }
+  EXPECT_EQ(node.counters().visits_refused, refused_before + 3) << node.summary();
+  EXPECT_EQ(node.counters().visits_taken, 1u);
+  EXPECT_TRUE(task_of(2)->target.isApprox(Vec2(6, 2)));
+  EXPECT_NE(node.summary().find("visits 1 (refused " + std::to_string(refused_before + 3) + ")"), std::string::npos)
+      << node.summary();
+}
+
+TEST(ExploreNode, VisitToolReportsWhenNoBaseListens) {
+  dds::Participant tool(dds::loopback_profile(kDomain + 3));  // no base on this domain
+  VisitRequestOptions o;
+  o.robot = 1;
+  o.timeout = 500 * kNanosPerMilli;
+  const VisitResult r = request_visit(tool, o);
+  EXPECT_EQ(r.outcome, VisitOutcome::kNoBase);
+  EXPECT_EQ(r.sent, 0);
+  EXPECT_NE(r.message.find("no base station reads visit requests"), std::string::npos) << r.message;
+}
+
+TEST(ExploreNode, VisitChecksRefuseNonFiniteFarAndUnlocalised) {
+  msg::VisitRequest v;
+  v.x = 3;
+  v.y = 4;
+  EXPECT_EQ(check_visit(v, true), VisitVerdict::kAccepted);
+  EXPECT_EQ(check_visit(v, false), VisitVerdict::kNotLocalised);
+  v.x = kMaxVisitDistanceM;  // hypot > limit
+  EXPECT_EQ(check_visit(v, true), VisitVerdict::kTooFar);
+  v.x = -std::numeric_limits<double>::infinity();
+  EXPECT_EQ(check_visit(v, true), VisitVerdict::kNotFinite);
+  v.x = 0;
+  v.y = std::nan("");
+  EXPECT_EQ(check_visit(v, true), VisitVerdict::kNotFinite);
 }
 
 }  // namespace

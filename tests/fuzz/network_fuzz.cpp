@@ -8,7 +8,8 @@
 // the fusion's frame estimate as basestation/grid_map_node does, or by a fixed frame when
 // the robot is not localised) or the robot's side (corrections, tasks, the global map's
 // tiles into a small GlobalMap, classified after each) or the exploration executive (bids,
-// op 7 with bit 5 set). At the
+// op 7 with bit 5 set; operators' visit requests, op 7 with bit 6 set, through the
+// executive's edge checks). At the
 // end the fusion's state is saved and restored, and op 0xFF feeds the rest of the input to
 // the state-file reader (which may refuse it with an exception, never crash).
 //
@@ -22,6 +23,7 @@
 #include <vector>
 
 #include "basestation/explore/task_allocator.hpp"
+#include "basestation/explore/visit_check.hpp"
 #include "basestation/fusion.hpp"
 #include "basestation/mapper/mapper.hpp"
 #include "common/dds/convert.hpp"
@@ -154,6 +156,20 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
           (void)dds::from_dds(d, &m);
           (void)allocator.on_bid(m, now);
           allocator.on_robot_pose(robot, Vec2(1.0, 0.5), now);
+          now += 100 * kNanosPerMilli;
+          assignments.clear();
+          (void)allocator.tick(now, &assignments);
+          break;
+        }
+        if (op & 0x40) {  // an operator's visit request, as ExploreNode takes it
+          cairn_VisitRequest d;
+          p = fill(&d, p, end);
+          msg::VisitRequest m;
+          (void)dds::from_dds(d, &m);
+          const bool localised = m.robot_id == robot;  // the fuzzer decides which robots the fusion knows
+          if (base::check_visit(m, localised) == base::VisitVerdict::kAccepted) {
+            (void)allocator.request_visit(m.robot_id, Vec2(m.x, m.y), now);
+          }
           now += 100 * kNanosPerMilli;
           assignments.clear();
           (void)allocator.tick(now, &assignments);

@@ -11,6 +11,7 @@
 #include <limits>
 
 #include "basestation/base_config.hpp"
+#include "basestation/explore/visit_check.hpp"
 #include "basestation/fusion_checks.hpp"
 #include "basestation/fusion_node.hpp"
 #include "common/dds/convert.hpp"
@@ -77,6 +78,33 @@ TEST(FuzzBaseMutator, ReproducibleAndCoversEveryMutation) {
   EXPECT_TRUE(all_same);
   EXPECT_TRUE(any_differs);
   for (std::size_t m = 0; m < seen.size(); ++m) EXPECT_GT(seen[m], 0) << mutation_name(static_cast<Mutation>(m));
+}
+
+// Visit requests never name a real robot (one would be a legitimate command, not
+// malformed input); the non-finite and huge ones are what the executive's check refuses,
+// the plausible ones pass it (so they test the allocator when fake robots are admitted).
+TEST(FuzzBaseMutator, VisitRequestsNameOnlyFakeRobotsAndMutationsAreRefused) {
+  SampleMutator mut(config(5));
+  auto v = std::make_unique<cairn_VisitRequest>();
+  std::array<int, static_cast<std::size_t>(Mutation::kCount)> seen{};
+  for (int i = 0; i < 20000; ++i) {
+    const Mutation m = mut.visit(v.get());
+    ++seen[static_cast<std::size_t>(m)];
+    EXPECT_FALSE(real(v->robot_id)) << i;
+    EXPECT_NE(std::memchr(v->issued_by, 0, sizeof v->issued_by), nullptr) << i;  // terminated
+    msg::VisitRequest r;
+    (void)dds::from_dds(*v, &r);
+    if (m == Mutation::kNonFinite || m == Mutation::kHuge) {
+      EXPECT_NE(base::check_visit(r, true), base::VisitVerdict::kAccepted) << i << " " << mutation_name(m);
+    }
+    if (m == Mutation::kPlausible) {
+      EXPECT_EQ(base::check_visit(r, true), base::VisitVerdict::kAccepted) << i;
+    }
+  }
+  for (const Mutation m : {Mutation::kPlausible, Mutation::kRandomBytes, Mutation::kNonFinite, Mutation::kHuge,
+                           Mutation::kSeqExtreme, Mutation::kTimeWarp}) {
+    EXPECT_GT(seen[static_cast<std::size_t>(m)], 500) << mutation_name(m);
+  }
 }
 
 TEST(FuzzBaseMutator, SweepWalksEveryIdOutsideTheFleet) {

@@ -23,8 +23,15 @@ struct FuzzTraffic::Writers {
   dds::Writer<cairn_LaserScan> scan_best_effort;
   TopicWriter<cairn_RobotStatus> status;
   TopicWriter<cairn_Bid> bid;
+  TopicWriter<cairn_VisitRequest> visit;
   explicit Writers(const dds::Participant& pp)
-      : odometry(pp), features(pp), scan(pp), scan_best_effort(pp, scan.topic, dds::sensor_qos(1)), status(pp), bid(pp) {}
+      : odometry(pp),
+        features(pp),
+        scan(pp),
+        scan_best_effort(pp, scan.topic, dds::sensor_qos(1)),
+        status(pp),
+        bid(pp),
+        visit(pp) {}
 };
 
 FuzzTraffic::FuzzTraffic(const dds::Participant& pp, MutatorConfig cfg, std::vector<Topic> topics)
@@ -56,6 +63,7 @@ void FuzzTraffic::send_one() {
     case Topic::kScan: emit(w_->scan, &SampleMutator::scan, alternate ? w_->scan_best_effort : w_->scan.writer); break;
     case Topic::kStatus: emit(w_->status, &SampleMutator::status, w_->status.writer); break;
     case Topic::kBid: emit(w_->bid, &SampleMutator::bid, w_->bid.writer); break;
+    case Topic::kVisit: emit(w_->visit, &SampleMutator::visit, w_->visit.writer); break;
     case Topic::kCount: return;
   }
   ++sent_[static_cast<std::size_t>(t)][static_cast<std::size_t>(m)];

@@ -245,6 +245,17 @@ int run(Options o) {
   if (traffic.total() >= 2000 && traffic.fuzzes(fuzz::Topic::kStatus) && fleet_refused <= 0) {
     failures.emplace_back("the fleet table refused no status of an unlisted robot: did the fuzz reach it?");
   }
+  // Visit requests for robots the fusion does not hold are refused and counted.
+  const std::string explore_line = fuzz::last_line_with(log, "explore: ");
+  long long visits_refused = -1;
+  if (const auto v = explore_line.find(" visits "); v != std::string::npos) {
+    if (const auto at = explore_line.find("(refused ", v); at != std::string::npos) {
+      visits_refused = std::atoll(explore_line.c_str() + at + 9);
+    }
+  }
+  if (traffic.total() >= 2000 && traffic.fuzzes(fuzz::Topic::kVisit) && visits_refused <= 0) {
+    failures.emplace_back("the executive refused no visit request: did the fuzz reach it?");
+  }
   // Memory: growth over the second half of what actually ran.
   double rss_half = 0, rss_end = 0, rss_peak = 0;
   for (const auto& [t, mib] : rss) {
@@ -316,6 +327,7 @@ int run(Options o) {
                     {"applied", {{"odometry", fl.odometry_applied}, {"features", fl.features_applied}}},
                     {"rejected", fl.rejected},
                     {"fleet_statuses_refused", fleet_refused},
+                    {"visit_requests_refused", visits_refused},
                     {"final", final_line},
                     {"rss_mib", {{"half", rss_half}, {"end", rss_end}, {"peak", rss_peak}, {"growth_second_half", growth}}}};
   report["estimates"] = estimates;
@@ -345,7 +357,7 @@ int run(Options o) {
 
 int main(int argc, char** argv) {
   CLI::App app{"cairn-fuzz-base: starts cairn-base on the loopback DDS profile beside a simulated fleet, floods every\n"
-               "topic the base reads (odometry, features, scans, status, bids) with random and mutated samples, and\n"
+               "topic the base reads (odometry, features, scans, status, bids, visit requests) with random and mutated samples, and\n"
                "checks that the base stays up, its state finite, its memory bounded, its refusals counted, and the\n"
                "real robots' estimates those of the same fleet without the fuzzer. Exit status 0 = all held\n"
                "(docs/fuzz-base.md)."};
@@ -364,7 +376,7 @@ int main(int argc, char** argv) {
                  "allowed growth of the base's resident memory over the second half of the run (0: not checked, "
                  "e.g. under ASan, whose quarantine keeps freed memory resident)");
   app.add_option("--topics", o.topics, "fuzz only these topics (default: all)")
-      ->check(CLI::IsMember({"odometry", "features", "scan", "status", "bid"}))
+      ->check(CLI::IsMember({"odometry", "features", "scan", "status", "bid", "visit"}))
       ->delimiter(',');
   app.add_option("--unknown-robots", o.unknown_robots,
                  "let up to N robots outside the fleet join ([unknown_robot] allow): fake robots then drive, relocate "

@@ -26,6 +26,7 @@ const char* topic_name(Topic t) {
     case Topic::kScan: return "scan";
     case Topic::kStatus: return "status";
     case Topic::kBid: return "bid";
+    case Topic::kVisit: return "visit";
     case Topic::kCount: break;
   }
   return "?";
@@ -439,6 +440,33 @@ Mutation SampleMutator::bid(cairn_Bid* s) {
     case Mutation::kEpochChange: s->map_version = 0; break;
     case Mutation::kTimeWarp: b.gain = -b.gain; break;
     default: break;
+  }
+  return m;
+}
+
+Mutation SampleMutator::visit(cairn_VisitRequest* s) {
+  const Mutation m = pick(false, false, false);
+  if (randomised(m, s)) {
+    std::uniform_int_distribution<std::size_t> at(0, 200);
+    terminate(s->issued_by, sizeof s->issued_by, at(rng_));
+    return m;
+  }
+  const std::uint16_t id = pick_fake();
+  const Fake& f = fakes_[id - cfg_.first_fake_id];
+  *s = {};
+  s->robot_id = id;
+  s->seq = ++visit_seq_;
+  s->issued_ns = f.t_ns;
+  std::uniform_real_distribution<double> off(-5, 5);
+  s->x = f.x + off(rng_);
+  s->y = f.y + off(rng_);
+  std::snprintf(s->issued_by, sizeof s->issued_by, "cairn-fuzz-base");
+  switch (m) {
+    case Mutation::kNonFinite: (rng_() % 2 ? s->x : s->y) = weird_value(); break;
+    case Mutation::kHuge: (rng_() % 2 ? s->x : s->y) = huge_value(); break;
+    case Mutation::kSeqExtreme: s->seq = rng_() % 2 ? 0 : std::numeric_limits<std::uint32_t>::max(); break;
+    case Mutation::kTimeWarp: s->issued_ns = std::numeric_limits<std::int64_t>::min(); break;
+    default: break;  // kEpochChange: a request has no epoch
   }
   return m;
 }

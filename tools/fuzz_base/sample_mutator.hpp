@@ -20,7 +20,7 @@
 
 namespace cairn::fuzz {
 
-enum class Topic : std::uint8_t { kOdometry, kFeatures, kScan, kStatus, kBid, kCount };
+enum class Topic : std::uint8_t { kOdometry, kFeatures, kScan, kStatus, kBid, kVisit, kCount };
 const char* topic_name(Topic t);
 
 enum class Mutation : std::uint8_t {
@@ -57,6 +57,9 @@ class SampleMutator {
   Mutation scan(cairn_LaserScan* s);
   Mutation status(cairn_RobotStatus* s);
   Mutation bid(cairn_Bid* s);
+  /// An operator's visit request for a fake robot (the base refuses it unless that robot
+  /// is admitted and localised; then it is the allocator's to carry out).
+  Mutation visit(cairn_VisitRequest* s);
 
   /// The mutations a sample under a real robot's id gets (each makes the base refuse it).
   static bool refused_as_a_whole(Mutation m);
@@ -89,6 +92,7 @@ class SampleMutator {
   std::mt19937_64 rng_;
   std::vector<Fake> fakes_;
   std::uint16_t sweep_next_ = 0;
+  std::uint32_t visit_seq_ = 0;
 };
 
 }  // namespace cairn::fuzz
