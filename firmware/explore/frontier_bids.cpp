@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "firmware/explore/footprint.hpp"
 #include "firmware/explore/wall_band.hpp"
 
 namespace cairn::explore {
@@ -16,6 +17,7 @@ namespace {
 constexpr std::uint8_t kBlocked = 1;   // not traversable: not clear, or within the robot's radius of an obstacle
 constexpr std::uint8_t kSettled = 2;   // its path cost is final (reached)
 constexpr std::uint8_t kNearKept = 4;  // closer than frontier_spacing_m to a kept frontier cell
+constexpr std::uint8_t kFootprint = 8;  // under the robot's disc: free, whatever the map says (footprint.hpp)
 constexpr std::uint32_t kNotInHeap = std::numeric_limits<std::uint32_t>::max();
 constexpr double kEps = 1e-9;  // in cells²: a distance exactly on a limit counts as on the limit
 
@@ -79,6 +81,8 @@ BidStatus FrontierBidder::compute(const GridGeometry& g, const Cell* cells, cons
   if (cells[start] == Cell::kObstacle) return BidStatus::kRobotInObstacle;
 
   mark_blocked(g, cells);
+  for_each_footprint_cell(g, cells, Vec2(robot.x, robot.y), config_.robot_radius_m,
+                          [&](std::size_t k) { flags_[k] = static_cast<std::uint8_t>((flags_[k] & ~kBlocked) | kFootprint); });
   flood_path_cost(g, cells, start);
 
   for (int j = 0; j < g.height; ++j)
@@ -121,8 +125,9 @@ void FrontierBidder::mark_blocked(const GridGeometry& g, const Cell* cells) {
 }
 
 // Dijkstra over traversable cells, 8-connected (diagonal steps cost √2·res and may not
-// cut a blocked corner). The start cell is always expanded, even when blocked by the
-// inflation or unknown, so a robot close to a wall still gets a plan. Frontier cells are
+// cut a blocked corner). The start cell and the rest of the robot's footprint are
+// traversable, even when inflated or unknown, so a robot close to a wall, or one whose
+// laser has not yet seen the cells under its own body, still gets a plan. Frontier cells are
 // considered as they settle, i.e. nearest first, which makes the spacing rule keep the
 // nearest cell of each stretch of frontier.
 void FrontierBidder::flood_path_cost(const GridGeometry& g, const Cell* cells, std::uint32_t start) {
@@ -156,12 +161,17 @@ void FrontierBidder::flood_path_cost(const GridGeometry& g, const Cell* cells, s
   }
 }
 
+// The cell's class for the bid: the robot's footprint is clear.
+Cell FrontierBidder::class_of(const Cell* cells, std::size_t k) const {
+  return (flags_[k] & kFootprint) ? Cell::kClear : cells[k];
+}
+
 // A frontier cell: clear, with an unknown 4-neighbour (4, not 8: an unknown cell seen only
 // diagonally, past the corner of a wall, is not an opening).
 bool FrontierBidder::is_frontier(const GridGeometry& g, const Cell* cells, int i, int j) const {
-  if (cells[g.index(i, j)] != Cell::kClear) return false;
+  if (class_of(cells, g.index(i, j)) != Cell::kClear) return false;
   for (int d = 0; d < 4; ++d)
-    if (g.contains(i + kDi4[d], j + kDj4[d]) && cells[g.index(i + kDi4[d], j + kDj4[d])] == Cell::kUnknown)
+    if (g.contains(i + kDi4[d], j + kDj4[d]) && class_of(cells, g.index(i + kDi4[d], j + kDj4[d])) == Cell::kUnknown)
       return true;
   return false;
 }
@@ -200,7 +210,7 @@ void FrontierBidder::measure_gain(const GridGeometry& g, const Cell* cells, Cand
   auto visit = [&](int i, int j) {
     if (!g.contains(i, j)) return;
     const std::size_t k = g.index(i, j);
-    if (cells[k] != Cell::kUnknown || gain_stamp_[k] == gain_epoch_) return;
+    if (class_of(cells, k) != Cell::kUnknown || gain_stamp_[k] == gain_epoch_) return;
     const double di = i - fi, dj = j - fj;
     if (di * di + dj * dj > range2) return;
     gain_stamp_[k] = gain_epoch_;

@@ -80,6 +80,7 @@ class FrontierBidder {
   void mark_blocked(const GridGeometry& g, const Cell* cells);
   void flood_path_cost(const GridGeometry& g, const Cell* cells, std::uint32_t start);
   bool is_frontier(const GridGeometry& g, const Cell* cells, int i, int j) const;
+  Cell class_of(const Cell* cells, std::size_t k) const;
   void consider(const GridGeometry& g, const Cell* cells, std::uint32_t cell);
   void measure_gain(const GridGeometry& g, const Cell* cells, Candidate* c);
   void mark_spacing(const GridGeometry& g, std::uint32_t cell);
@@ -94,7 +95,7 @@ class FrontierBidder {
 
   FrontierBidderConfig config_;
   BidStats stats_;
-  std::vector<std::uint8_t> flags_;        // per cell: kBlocked | kSettled | kNearKept
+  std::vector<std::uint8_t> flags_;        // per cell: kBlocked | kSettled | kNearKept | kFootprint
   std::vector<double> cost_;               // path cost (m) from the robot's cell
   std::vector<std::uint32_t> heap_;        // Dijkstra's open set
   std::vector<std::uint32_t> heap_pos_;    // slot in heap_, kNotInHeap when not queued

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "firmware/explore/footprint.hpp"
 #include "firmware/explore/wall_band.hpp"
 
 namespace cairn::explore {
@@ -107,6 +108,9 @@ PlanStatus GridPlanner::plan(const GridGeometry& g, const Cell* cells, Vec2 star
   auto goal_cell = [&](std::uint32_t c) { return c == goal_index && cells[c] == Cell::kClear; };
 
   mark_inflated(g, cells);
+  // The robot's footprint is free (footprint.hpp): its unknown cells are entered.
+  for_each_footprint_cell(g, cells, start, config_.robot_radius_m,
+                          [&](std::size_t k) { flags_[k] = static_cast<std::uint8_t>(flags_[k] & ~kWall); });
   const std::size_t n = g.cells();
   std::fill_n(cost_.begin(), n, std::numeric_limits<double>::infinity());
   std::fill_n(heap_pos_.begin(), n, kNone);

@@ -170,6 +170,37 @@ TEST(FrontierBids, RobotPressedAgainstAWallStillPlans) {
   EXPECT_GE(bid.n_items, 1);
 }
 
+// A robot that has not moved yet: its laser, 0.2 m ahead of its centre, has not seen the
+// cells under its own body (nor behind it). Its footprint is free space all the same: it
+// must bid for the frontier ahead, not report "no frontier" (which the executive takes
+// as "nothing left here" and, with one robot, as the end of exploration: seen in world B
+// at the first bid, 2 s into the run).
+TEST(FrontierBids, RobotWhoseOwnCellsAreUnseenStillBids) {
+  Map m(40, 15);
+  // Seen from the laser's cell on (cell 7 begins 0.225 m ahead of the centre, the laser is
+  // at 0.2 m); unknown beyond i = 30.
+  m.fill(7, 3, 30, 11, Cell::kClear);
+  m.fill(7, 2, 30, 2, Cell::kObstacle);
+  m.fill(7, 12, 30, 12, Cell::kObstacle);
+  FrontierBidder bidder(config(0.30, 2.0));
+  msg::Bid bid;
+  const Pose2 robot = m.pose_at(5, 7);  // its own cell and the next one ahead unknown
+  ASSERT_EQ(m.at(5, 7), Cell::kUnknown);
+  ASSERT_EQ(m.at(6, 7), Cell::kUnknown);
+  ASSERT_EQ(bidder.compute(m.g, m.c.data(), robot, &bid), BidStatus::kOk);
+  EXPECT_GT(bidder.stats().reached_cells, 100u);  // the seen room, through the footprint
+  bool far_frontier = false;
+  for (std::size_t k = 0; k < bid.n_items; ++k) {
+    const auto [i, j] = cell_of(m, bid.items[k]);
+    far_frontier = far_frontier || i == 30;
+    EXPECT_GT(bid.items[k].gain, 0);
+  }
+  EXPECT_TRUE(far_frontier) << "the opening at i = 30 is reachable through the footprint";
+  // An obstacle under the disc stays one: a robot the map puts inside a wall is refused.
+  m.fill(5, 7, 5, 7, Cell::kObstacle);
+  EXPECT_EQ(bidder.compute(m.g, m.c.data(), robot, &bid), BidStatus::kRobotInObstacle);
+}
+
 TEST(FrontierBids, KeptFrontiersAreSpacedAndCoverTheFrontier) {
   // A clear room 30 × 20 cells, its whole top edge open to unknown: 30 frontier cells.
   Map m(30, 30);

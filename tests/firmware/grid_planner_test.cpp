@@ -124,6 +124,19 @@ TEST(GridPlanner, UnknownCellsAreNeverCrossed) {
   EXPECT_TRUE(path.empty());
 }
 
+// The cells under a robot that has not moved yet are unknown (its laser is mounted ahead of
+// its centre); its footprint is free all the same, so it plans out of it.
+TEST(GridPlanner, StartWhoseOwnCellsAreUnseenStillPlans) {
+  Map m(40, 20);
+  m.fill(7, 3, 35, 16, Cell::kClear);  // the robot at (5, 10): its cell and the next unknown
+  GridPlanner p(config());
+  std::vector<Vec2> path;
+  ASSERT_EQ(p.plan(m.g, m.c.data(), m.at(5, 10), m.at(30, 10), &path), PlanStatus::kOk);
+  EXPECT_NEAR((path.back() - m.at(30, 10)).norm(), 0.0, 1e-12);
+  // Unknown cells beyond the footprint are still never entered.
+  for (const Vec2& w : path) EXPECT_TRUE(m.cell(w) == Cell::kClear || (w - m.at(5, 10)).norm() <= 0.30) << w.transpose();
+}
+
 TEST(GridPlanner, StartInsideTheInflationStillPlans) {
   Map m(40, 20);
   m.fill(0, 0, 39, 19, Cell::kClear);
