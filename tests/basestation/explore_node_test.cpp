@@ -49,26 +49,47 @@ msg::BidItem item(double x, double y, double gain, double cost, double half) {
   return {x, y, gain, cost, x - half, y - half, x + half, y + half};
 }
 
-TEST(ExploreNode, BidsFromLocalisedRobotsComeBackAsCoordinatedTasks) {
-  dds::Participant pp(dds::loopback_profile(kDomain));
-  Fusion fusion(two_robots());
-  localise(&fusion, 1);
-  localise(&fusion, 2);
-  Fleet fleet(3 * kNanosPerSecond, nullptr, FleetAdmission{{1, 2}, 8, {}});
-  auto& clock = MonotonicClock::instance();
-  for (std::uint16_t id : {std::uint16_t{1}, std::uint16_t{2}, std::uint16_t{9}}) fleet.on_status(id, "r", "running", 1, clock.now());
-  explore::AllocatorConfig cfg;
-  cfg.bid_wait = 100 * kNanosPerMilli;
-  ExploreNode node(pp, cfg);
+// The base's exploration node in its own DDS domain, with robots 1 and 2 localised by its
+// fusion and alive in its fleet table, and the robots' participant with a Bid writer
+// matched to it.
+struct Base {
+  explicit Base(std::uint32_t domain)
+      : pp(dds::loopback_profile(domain)),
+        fusion(two_robots()),
+        fleet(3 * kNanosPerSecond, nullptr, FleetAdmission{{1, 2}, 8, {}}),
+        node(pp, config()),
+        robots(dds::loopback_profile(domain)),
+        bid_topic(robots),
+        bids(robots, bid_topic, dds::state_qos(1)) {
+    localise(&fusion, 1);
+    localise(&fusion, 2);
+    for (std::uint16_t id : {std::uint16_t{1}, std::uint16_t{2}}) fleet.on_status(id, "r", "running", 1, clock.now());
+  }
+  static explore::AllocatorConfig config() {
+    explore::AllocatorConfig cfg;
+    cfg.bid_wait = 100 * kNanosPerMilli;
+    return cfg;
+  }
+  void write(const msg::Bid& b) {
+    cairn_Bid d{};
+    dds::to_dds(b, &d);
+    ASSERT_TRUE(bids.write(d));
+  }
+  MonotonicClock& clock = MonotonicClock::instance();
+  dds::Participant pp;
+  Fusion fusion;
+  Fleet fleet;
+  ExploreNode node;
+  dds::Participant robots;
+  dds::Topic<cairn_Bid> bid_topic;
+  dds::Writer<cairn_Bid> bids;
+};
 
-  dds::Participant robots(dds::loopback_profile(kDomain));
-  dds::Topic<cairn_Bid> bid_topic(robots);
-  dds::Writer<cairn_Bid> bids(robots, bid_topic, dds::state_qos(1));
-  ASSERT_TRUE(bids.wait_for_readers(1, 5 * kNanosPerSecond));
-  // Both robots' best item is the same frontier A (robot 1 is nearer); robot 2's second is
-  // B, elsewhere. Coordinated: 1 takes A, 2's A is discounted by the whole overlap, so 2
-  // takes B. Robot 9 is not in the fusion: its bid must not count.
-  msg::Bid b1, b2, b9;
+// Both robots' best item is the same frontier A (robot 1 is nearer); robot 2's second is
+// B, elsewhere. Coordinated: 1 takes A, 2's A is discounted by the whole overlap, so 2
+// takes B.
+std::pair<msg::Bid, msg::Bid> bids_sharing_a_frontier() {
+  msg::Bid b1, b2;
   b1.robot_id = 1;
   b1.seq = 1;
   b1.n_items = 1;
@@ -78,22 +99,30 @@ TEST(ExploreNode, BidsFromLocalisedRobotsComeBackAsCoordinatedTasks) {
   b2.n_items = 2;
   b2.items[0] = item(6, 2, 300, 6.5, 2);
   b2.items[1] = item(-6, 6, 150, 6, 2);
+  return {b1, b2};
+}
+
+TEST(ExploreNode, BidsFromLocalisedRobotsComeBackAsCoordinatedTasks) {
+  Base b(kDomain);
+  auto& clock = b.clock;
+  auto& robots = b.robots;
+  b.fleet.on_status(9, "r", "running", 1, clock.now());
+  ASSERT_TRUE(b.bids.wait_for_readers(1, 5 * kNanosPerSecond));
+  // Robot 9 is not in the fusion: its bid must not count.
+  const auto [b1, b2] = bids_sharing_a_frontier();
+  msg::Bid b9;
   b9.robot_id = 9;
   b9.seq = 1;
   b9.n_items = 1;
   b9.items[0] = item(1, 1, 1000, 1, 1);
-  for (const msg::Bid* b : {&b1, &b2, &b9}) {
-    cairn_Bid d{};
-    dds::to_dds(*b, &d);
-    ASSERT_TRUE(bids.write(d));
-  }
+  for (const msg::Bid& bid : {b1, b2, b9}) b.write(bid);
 
   dds::Topic<cairn_TaskAssignment> task_topic(robots);
   dds::Reader<cairn_TaskAssignment> tasks(robots, task_topic, dds::latched_qos());
   std::map<std::uint16_t, msg::TaskAssignment> got;
   const Nanos end = clock.now() + 5 * kNanosPerSecond;
   while (got.size() < 2 && clock.now() < end) {
-    node.poll(clock.now(), fusion, fleet);
+    b.node.poll(clock.now(), b.fusion, b.fleet);
     tasks.take([&](const cairn_TaskAssignment& d, const dds_sample_info_t&) {
       msg::TaskAssignment t;
       ASSERT_TRUE(dds::from_dds(d, &t));
@@ -101,7 +130,7 @@ TEST(ExploreNode, BidsFromLocalisedRobotsComeBackAsCoordinatedTasks) {
     });
     usleep(5000);
   }
-  ASSERT_EQ(got.size(), 2u) << node.summary();
+  ASSERT_EQ(got.size(), 2u) << b.node.summary();
   EXPECT_EQ(got.count(9), 0u);
   EXPECT_EQ(got[1].kind, msg::TaskKind::kExplore);
   EXPECT_DOUBLE_EQ(got[1].target_x, 6);
@@ -109,16 +138,16 @@ TEST(ExploreNode, BidsFromLocalisedRobotsComeBackAsCoordinatedTasks) {
   EXPECT_EQ(got[2].kind, msg::TaskKind::kExplore);
   EXPECT_DOUBLE_EQ(got[2].target_x, -6);
   EXPECT_DOUBLE_EQ(got[2].target_y, 6);
-  EXPECT_EQ(node.counters().bids_taken, 2u);
-  EXPECT_EQ(node.counters().bids_unlocalised, 1u);
-  EXPECT_EQ(node.counters().assignments_written, 2u);
-  EXPECT_NE(node.summary().find("bids 2 (unlocalised 1"), std::string::npos) << node.summary();
+  EXPECT_EQ(b.node.counters().bids_taken, 2u);
+  EXPECT_EQ(b.node.counters().bids_unlocalised, 1u);
+  EXPECT_EQ(b.node.counters().assignments_written, 2u);
+  EXPECT_NE(b.node.summary().find("bids 2 (unlocalised 1"), std::string::npos) << b.node.summary();
 
   // Robot 2 falls silent: the fleet calls it lost and the allocator takes its task back.
-  fleet.on_lost(2, clock.now());
-  node.poll(clock.now(), fusion, fleet);
-  EXPECT_EQ(node.allocator().counters().link_losses, 1u);
-  const auto t2 = node.allocator().task(2);
+  b.fleet.on_lost(2, clock.now());
+  b.node.poll(clock.now(), b.fusion, b.fleet);
+  EXPECT_EQ(b.node.allocator().counters().link_losses, 1u);
+  const auto t2 = b.node.allocator().task(2);
   ASSERT_TRUE(t2.has_value());
   EXPECT_FALSE(t2->active);
 }
@@ -126,42 +155,30 @@ TEST(ExploreNode, BidsFromLocalisedRobotsComeBackAsCoordinatedTasks) {
 // Both robots bid, with nothing left to gain: poll() says exploration is complete once,
 // in the poll where it happens (cairn-base then reports the mapped area and saves the map).
 TEST(ExploreNode, PollReportsTheEndOfExplorationOnce) {
-  dds::Participant pp(dds::loopback_profile(kDomain + 1));
-  Fusion fusion(two_robots());
-  localise(&fusion, 1);
-  localise(&fusion, 2);
-  Fleet fleet(3 * kNanosPerSecond, nullptr, FleetAdmission{{1, 2}, 8, {}});
-  auto& clock = MonotonicClock::instance();
-  for (std::uint16_t id : {std::uint16_t{1}, std::uint16_t{2}}) fleet.on_status(id, "r", "running", 1, clock.now());
-  explore::AllocatorConfig cfg;
-  cfg.bid_wait = 100 * kNanosPerMilli;
-  ExploreNode node(pp, cfg);
-  dds::Participant robots(dds::loopback_profile(kDomain + 1));
-  dds::Topic<cairn_Bid> bid_topic(robots);
-  dds::Writer<cairn_Bid> bids(robots, bid_topic, dds::state_qos(1));
-  ASSERT_TRUE(bids.wait_for_readers(1, 5 * kNanosPerSecond));
+  Base b(kDomain + 1);
+  auto& clock = b.clock;
+  const explore::AllocatorConfig cfg = Base::config();
+  ASSERT_TRUE(b.bids.wait_for_readers(1, 5 * kNanosPerSecond));
   for (std::uint16_t id : {std::uint16_t{1}, std::uint16_t{2}}) {
-    msg::Bid b;
-    b.robot_id = id;
-    b.seq = 1;
-    b.n_items = 1;
-    b.items[0] = item(3, id, cfg.min_gain, 1, 1);  // gain not above the threshold
-    cairn_Bid d{};
-    dds::to_dds(b, &d);
-    ASSERT_TRUE(bids.write(d));
+    msg::Bid nothing;
+    nothing.robot_id = id;
+    nothing.seq = 1;
+    nothing.n_items = 1;
+    nothing.items[0] = item(3, id, cfg.min_gain, 1, 1);  // gain not above the threshold
+    b.write(nothing);
   }
   // The bids arrive on the wall clock; after that the node runs on simulated time: 2 s in
   // 50 ms polls, well past the 100 ms wait for bids.
   int completions = 0;
   const Nanos end = clock.now() + 5 * kNanosPerSecond;
   Nanos now = clock.now();
-  while (node.counters().bids_taken < 2 && (now = clock.now()) < end) {
-    completions += node.poll(now, fusion, fleet) ? 1 : 0;
+  while (b.node.counters().bids_taken < 2 && (now = clock.now()) < end) {
+    completions += b.node.poll(now, b.fusion, b.fleet) ? 1 : 0;
     usleep(5000);
   }
-  ASSERT_EQ(node.counters().bids_taken, 2u) << node.summary();
-  for (int k = 1; k <= 40; ++k) completions += node.poll(now + k * 50 * kNanosPerMilli, fusion, fleet) ? 1 : 0;
-  EXPECT_TRUE(node.allocator().explored()) << node.summary();
+  ASSERT_EQ(b.node.counters().bids_taken, 2u) << b.node.summary();
+  for (int k = 1; k <= 40; ++k) completions += b.node.poll(now + k * 50 * kNanosPerMilli, b.fusion, b.fleet) ? 1 : 0;
+  EXPECT_TRUE(b.node.allocator().explored()) << b.node.summary();
   EXPECT_EQ(completions, 1);
 }
 
@@ -171,50 +188,26 @@ TEST(ExploreNode, PollReportsTheEndOfExplorationOnce) {
 // must refuse (a robot it has not localised, a NaN or far target) change nothing and are
 // counted; with no base the tool says so.
 TEST(ExploreNode, VisitRequestSendsTheRobotThereAndTheOthersCoverForIt) {
-  dds::Participant pp(dds::loopback_profile(kDomain + 2));
-  Fusion fusion(two_robots());
-  localise(&fusion, 1);
-  localise(&fusion, 2);
-  Fleet fleet(3 * kNanosPerSecond, nullptr, FleetAdmission{{1, 2}, 8, {}});
-  auto& clock = MonotonicClock::instance();
-  for (std::uint16_t id : {std::uint16_t{1}, std::uint16_t{2}}) fleet.on_status(id, "r", "running", 1, clock.now());
-  explore::AllocatorConfig cfg;
-  cfg.bid_wait = 100 * kNanosPerMilli;
-  ExploreNode node(pp, cfg);
-
-  dds::Participant robots(dds::loopback_profile(kDomain + 2));
-  dds::Topic<cairn_Bid> bid_topic(robots);
-  dds::Writer<cairn_Bid> bids(robots, bid_topic, dds::state_qos(1));
-  ASSERT_TRUE(bids.wait_for_readers(1, 5 * kNanosPerSecond));
-  msg::Bid b1, b2;  // as in the first test: 1 takes A (6, 2), 2 takes B (-6, 6)
-  b1.robot_id = 1;
-  b1.seq = 1;
-  b1.n_items = 1;
-  b1.items[0] = item(6, 2, 300, 6, 2);
-  b2.robot_id = 2;
-  b2.seq = 1;
-  b2.n_items = 2;
-  b2.items[0] = item(6, 2, 300, 6.5, 2);
-  b2.items[1] = item(-6, 6, 150, 6, 2);
-  for (const msg::Bid* b : {&b1, &b2}) {
-    cairn_Bid d{};
-    dds::to_dds(*b, &d);
-    ASSERT_TRUE(bids.write(d));
-  }
-  auto task_of = [&](std::uint16_t id) { return node.allocator().task(id); };
+  Base b(kDomain + 2);
+  auto& clock = b.clock;
+  ASSERT_TRUE(b.bids.wait_for_readers(1, 5 * kNanosPerSecond));
+  const auto [b1, b2] = bids_sharing_a_frontier();  // 1 takes A (6, 2), 2 takes B (-6, 6)
+  b.write(b1);
+  b.write(b2);
+  auto task_of = [&](std::uint16_t id) { return b.node.allocator().task(id); };
   const Nanos end = clock.now() + 5 * kNanosPerSecond;
   while (!(task_of(1) && task_of(1)->kind == msg::TaskKind::kExplore && task_of(2) &&
            task_of(2)->kind == msg::TaskKind::kExplore) &&
          clock.now() < end) {
-    node.poll(clock.now(), fusion, fleet);
+    b.node.poll(clock.now(), b.fusion, b.fleet);
     usleep(5000);
   }
-  ASSERT_TRUE(task_of(2) && task_of(2)->target.isApprox(Vec2(-6, 6))) << node.summary();
+  ASSERT_TRUE(task_of(2) && task_of(2)->target.isApprox(Vec2(-6, 6))) << b.node.summary();
 
   // The operator's tool, on its own participant, while the base keeps polling.
   dds::Participant tool(dds::loopback_profile(kDomain + 2));
   auto poll_while = [&](std::future<VisitResult>& f) {
-    while (f.wait_for(std::chrono::milliseconds(5)) != std::future_status::ready) node.poll(clock.now(), fusion, fleet);
+    while (f.wait_for(std::chrono::milliseconds(5)) != std::future_status::ready) b.node.poll(clock.now(), b.fusion, b.fleet);
     return f.get();
   };
   VisitRequestOptions o;
@@ -223,22 +216,22 @@ TEST(ExploreNode, VisitRequestSendsTheRobotThereAndTheOthersCoverForIt) {
   o.issued_by = "explore_node_test";
   auto visit = std::async(std::launch::async, [&] { return request_visit(tool, o); });
   const VisitResult r = poll_while(visit);
-  ASSERT_TRUE(r.ok()) << r.message << "; " << node.summary();
+  ASSERT_TRUE(r.ok()) << r.message << "; " << b.node.summary();
   EXPECT_EQ(r.sent, 1);
   EXPECT_NE(r.message.find("assigned as task"), std::string::npos) << r.message;
   ASSERT_TRUE(task_of(1));
   EXPECT_EQ(task_of(1)->kind, msg::TaskKind::kGoto);
   EXPECT_EQ(task_of(1)->task_id, r.task_id);
   EXPECT_TRUE(task_of(1)->target.isApprox(Vec2(2.5, -1.5)));
-  EXPECT_EQ(node.counters().visits_taken, 1u);
-  EXPECT_EQ(node.allocator().counters().visits_requested, 1u);
+  EXPECT_EQ(b.node.counters().visits_taken, 1u);
+  EXPECT_EQ(b.node.allocator().counters().visits_requested, 1u);
   // Robot 2 covers for robot 1: the next round (after the wait for bids) gives it A.
   const Nanos cover_end = clock.now() + 5 * kNanosPerSecond;
   while (!task_of(2)->target.isApprox(Vec2(6, 2)) && clock.now() < cover_end) {
-    node.poll(clock.now(), fusion, fleet);
+    b.node.poll(clock.now(), b.fusion, b.fleet);
     usleep(5000);
   }
-  EXPECT_TRUE(task_of(2)->target.isApprox(Vec2(6, 2))) << task_of(2)->target.transpose() << "; " << node.summary();
+  EXPECT_TRUE(task_of(2)->target.isApprox(Vec2(6, 2))) << task_of(2)->target.transpose() << "; " << b.node.summary();
   EXPECT_EQ(task_of(1)->kind, msg::TaskKind::kGoto);  // still on its visit
 
   // Refused: robot 9 is not localised (the tool reports no confirmation); NaN and far
@@ -254,7 +247,7 @@ TEST(ExploreNode, VisitRequestSendsTheRobotThereAndTheOthersCoverForIt) {
   dds::Topic<cairn_VisitRequest> visit_topic(tool);
   dds::Writer<cairn_VisitRequest> raw(tool, visit_topic, dds::state_qos(1));
   ASSERT_TRUE(raw.wait_for_readers(1, 5 * kNanosPerSecond));
-  const std::uint64_t refused_before = node.counters().visits_refused;
+  const std::uint64_t refused_before = b.node.counters().visits_refused;
   EXPECT_EQ(refused_before, static_cast<std::uint64_t>(rr.sent));
   // One at a time: the reader keeps the latest request per robot (a newer one replaces an
   // older one not yet taken).
@@ -268,16 +261,16 @@ TEST(ExploreNode, VisitRequestSendsTheRobotThereAndTheOthersCoverForIt) {
     ASSERT_TRUE(raw.write(d));
     ++expected;
     const Nanos refuse_end = clock.now() + 5 * kNanosPerSecond;
-    while (node.counters().visits_refused < expected && clock.now() < refuse_end) {
-      node.poll(clock.now(), fusion, fleet);
+    while (b.node.counters().visits_refused < expected && clock.now() < refuse_end) {
+      b.node.poll(clock.now(), b.fusion, b.fleet);
       usleep(5000);
     }
   }
-  EXPECT_EQ(node.counters().visits_refused, refused_before + 3) << node.summary();
-  EXPECT_EQ(node.counters().visits_taken, 1u);
+  EXPECT_EQ(b.node.counters().visits_refused, refused_before + 3) << b.node.summary();
+  EXPECT_EQ(b.node.counters().visits_taken, 1u);
   EXPECT_TRUE(task_of(2)->target.isApprox(Vec2(6, 2)));
-  EXPECT_NE(node.summary().find("visits 1 (refused " + std::to_string(refused_before + 3) + ")"), std::string::npos)
-      << node.summary();
+  EXPECT_NE(b.node.summary().find("visits 1 (refused " + std::to_string(refused_before + 3) + ")"), std::string::npos)
+      << b.node.summary();
 }
 
 TEST(ExploreNode, VisitToolReportsWhenNoBaseListens) {
