@@ -79,6 +79,12 @@ BaseConfig from_document(const ConfigDocument& doc) {
     a.bar_duration = seconds_to_nanos(e->number_or("bar_s", nanos_to_seconds(a.bar_duration), {0.0, 86400.0}));
     a.arrival_radius_m = e->number_or("arrival_radius_m", a.arrival_radius_m, {0.01, 10.0});
     a.coordinated = e->boolean_or("coordinated", a.coordinated);
+    // At the end, every listed robot with a known start pose drives back to it.
+    if (e->boolean_or("return_home", true)) {
+      for (const auto& [id, prior] : c.fusion.robots) {
+        if (prior.known) a.home[id] = Vec2(prior.pose.x, prior.pose.y);
+      }
+    }
     try {
       explore::validate(a);
     } catch (const std::invalid_argument& ex) {

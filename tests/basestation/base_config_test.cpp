@@ -73,6 +73,15 @@ TEST(BaseConfig, ExplorationIsOffByDefaultAndItsKeysAreRead) {
   EXPECT_DOUBLE_EQ(c.explore.cells_per_metre, 4);
   EXPECT_DOUBLE_EQ(c.explore.hysteresis_ratio, 0.9);
   EXPECT_FALSE(c.explore.coordinated);
+  // Robots go home at the end by default: the listed robots with a known start pose.
+  const BaseConfig two = parse_base_config(std::string("[explore]\nenabled = true\n") + kFleet +
+                                               "[[robot]]\nid = 2\ninitial_pose = [1.5, -2.0, 0.3]\n[[robot]]\nid = 3\n",
+                                           "home.toml");
+  ASSERT_EQ(two.explore.home.size(), 2u);
+  EXPECT_TRUE(two.explore.home.at(2).isApprox(Vec2(1.5, -2.0)));
+  EXPECT_EQ(two.explore.home.count(3), 0u);  // no initial_pose: no home to go back to
+  EXPECT_TRUE(parse_base_config(std::string("[explore]\nenabled = true\nreturn_home = false\n") + kFleet, "nohome.toml")
+                  .explore.home.empty());
   EXPECT_THROW(parse_base_config(std::string("[explore]\nhysteresis_ratio = 0\n") + kFleet, "e.toml"), ConfigError);
   EXPECT_THROW(parse_base_config(std::string("[explore]\nbid_wiat_s = 1\n") + kFleet, "f.toml"), ConfigError);
   try {
