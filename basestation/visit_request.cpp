@@ -52,7 +52,7 @@ VisitResult request_visit(const dds::Participant& pp, const VisitRequestOptions&
         confirmed = true;
         res.task_id = t.task_id;
       }
-      if (!after_write || !any_task || t.task_id > last_task) last_task = std::max(last_task, t.task_id);
+      last_task = std::max(last_task, t.task_id);
       any_task = true;
     });
   };
