@@ -121,6 +121,11 @@ std::string GridMapNode::export_to(const std::string& dir, const Fusion& fusion)
     mapper::write_map_server(grid, dir + "/map");
     mapper::write_png(grid, trajectories, landmarks, dir + "/map.png");
     mapper::write_landmarks_json(landmarks, dir + "/landmarks.json");
+    std::vector<mapper::TrajectorySample> poses;
+    for (std::uint16_t id : mapper_.robots()) {
+      for (const mapper::TimedPose& p : mapper_.body_trajectory(id)) poses.push_back({id, p.stamp, p.pose});
+    }
+    mapper::write_trajectories_csv(poses, dir + "/trajectories.csv");
     ++counters_.exports;
     return "";
   } catch (const std::exception& e) {

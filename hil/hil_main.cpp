@@ -94,6 +94,9 @@ int run_robots(const RobotsOptions& o) {
 
   auto& clock = MonotonicClock::instance();
   const Nanos start = clock.now();
+  // t_s = 0 on CLOCK_MONOTONIC, which the robots stamp their scans with on this machine: a
+  // trajectory in robot time (the base's trajectories.csv) can be scored against the truth.
+  if (truth) std::fprintf(truth.get(), "# t0_monotonic_ns %lld\n", static_cast<long long>(start));
   Nanos next = start, next_report = start + seconds_to_nanos(o.report_period);
   while (!shutdown_requested() && (o.duration <= 0 || clock.now() < start + seconds_to_nanos(o.duration))) {
     const Nanos now = clock.now();

@@ -58,6 +58,12 @@ if [ "$robots" -ge 2 ]; then
   (sleep 36; echo "demo: operator resets robot 2's released e-stop from the base";
    $B/basestation/cairn-base --config config/base-hil.toml --reset-estop 2 >"$run/reset.log" 2>&1) &
 fi
+# An operator's request (the seed's "visit (x, y)"): robot 3 leaves its frontier for the
+# corridor's middle; the others cover for it, and it rejoins exploration when it arrives.
+if [ "$robots" -ge 3 ]; then
+  (sleep 50; echo "demo: operator asks robot 3 to visit (12.5, 10.0) from the base";
+   $B/basestation/cairn-base --config config/base-hil.toml --visit 3 12.5 10.0 >"$run/visit.log" 2>&1) &
+fi
 # Live coverage against the world's ground truth: every 20 s the base is asked for its
 # map (SIGUSR1) and cairn-map-quality compares it with the world.
 world=hil/worlds/office.world
@@ -94,9 +100,11 @@ for id in $(seq "$robots"); do
 done
 { grep "explore:" "$run/base.out" || true; } | tail -1
 [ -f "$run/reset.log" ] && echo "demo: $(cat "$run/reset.log")"
+[ -f "$run/visit.log" ] && echo "demo: $(cat "$run/visit.log")"
 echo
-echo "demo: the base's map at exit ($run/map: map.png with trajectories and landmark ellipses, map.pgm + map.yaml for map_server, landmarks.json):"
-$B/tools/map_quality/cairn-map-quality --map "$run/map/map.yaml" --world "$world" --landmarks "$run/map/landmarks.json" |
+echo "demo: the base's map at exit ($run/map: map.png with trajectories and landmark ellipses, map.pgm + map.yaml for map_server, landmarks.json, trajectories.csv), against the ground truth:"
+$B/tools/map_quality/cairn-map-quality --map "$run/map/map.yaml" --world "$world" --landmarks "$run/map/landmarks.json" \
+  --trajectories "$run/map/trajectories.csv" --ground-truth "$run/truth.txt" |
   sed 's/^/  /' ||
   echo "demo: no map was written (see $run/base.err)"
 echo "demo: done (ground truth in $run/truth.txt)"

@@ -3,6 +3,7 @@
 #include <png.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -12,6 +13,8 @@
 #include <sstream>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
+
+#include "common/text_lines.hpp"
 
 namespace cairn::mapper {
 
@@ -161,6 +164,54 @@ std::vector<msg::Landmark> parse_landmarks_json(std::string_view text, const std
   } catch (const std::runtime_error& e) {
     throw std::runtime_error(path + ": " + e.what());
   }
+  return out;
+}
+
+void write_trajectories_csv(const std::vector<TrajectorySample>& samples, const std::string& path) {
+  std::ofstream out(path);
+  out << "robot,t_ns,x,y,theta\n";
+  char line[160];
+  for (const TrajectorySample& t : samples) {
+    std::snprintf(line, sizeof line, "%u,%lld,%.6f,%.6f,%.6f\n", static_cast<unsigned>(t.robot),
+                  static_cast<long long>(t.stamp), t.pose.x, t.pose.y, t.pose.theta);
+    out << line;
+  }
+  out.flush();
+  if (!out) throw std::runtime_error("cannot write " + path);
+}
+
+std::vector<TrajectorySample> read_trajectories_csv(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_trajectories_csv(text.str(), path);
+}
+
+std::vector<TrajectorySample> parse_trajectories_csv(std::string_view text, const std::string& path) {
+  std::vector<TrajectorySample> out;
+  bool header = false;
+  for_each_line(text, [&](std::size_t line_no, const std::string& line) {
+    auto fail = [&](const std::string& why) { return std::runtime_error(path + ":" + std::to_string(line_no) + ": " + why); };
+    if (line_no == 1) {
+      if (line.rfind("robot,t_ns,x,y,theta", 0) != 0) throw fail("expected the header robot,t_ns,x,y,theta");
+      header = true;
+      return;
+    }
+    if (line.empty() || line == "\r") return;
+    unsigned long robot = 0;
+    long long stamp = 0;
+    double x = 0, y = 0, theta = 0;
+    int used = 0;
+    if (std::sscanf(line.c_str(), "%lu,%lld,%lf,%lf,%lf%n", &robot, &stamp, &x, &y, &theta, &used) != 5 ||
+        line.find_first_not_of(" \r", static_cast<std::size_t>(used)) != std::string::npos) {
+      throw fail("expected robot,t_ns,x,y,theta");
+    }
+    if (robot < 1 || robot > 65535) throw fail("robot id outside 1..65535");
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(theta)) throw fail("a pose that is not finite");
+    out.push_back({static_cast<std::uint16_t>(robot), stamp, {x, y, theta}});
+  });
+  if (!header) throw std::runtime_error(path + ": empty (expected the header robot,t_ns,x,y,theta)");
   return out;
 }
 

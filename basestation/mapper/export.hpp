@@ -52,6 +52,22 @@ std::vector<msg::Landmark> read_landmarks_json(const std::string& path);
 /// The same from text; `name` prefixes the error (the fuzz target's entry).
 std::vector<msg::Landmark> parse_landmarks_json(std::string_view text, const std::string& name);
 
+/// One robot's body pose at a time of its clock (the robots' and the bench's clocks are
+/// CLOCK_MONOTONIC on one machine).
+struct TrajectorySample {
+  std::uint16_t robot = 0;
+  Nanos stamp = 0;
+  Pose2 pose;
+};
+/// CSV, header `robot,t_ns,x,y,theta`: the trajectory the base's map was built from
+/// (Mapper::body_trajectory of every robot), for scoring against a bench's ground truth.
+void write_trajectories_csv(const std::vector<TrajectorySample>& samples, const std::string& path);
+/// Reads what write_trajectories_csv wrote; throws std::runtime_error naming the file, the
+/// line and the problem (a missing field, a non-number, a non-finite pose, a robot id
+/// outside 1..65535).
+std::vector<TrajectorySample> read_trajectories_csv(const std::string& path);
+std::vector<TrajectorySample> parse_trajectories_csv(std::string_view text, const std::string& name);
+
 /// Reads a map_server map (YAML + the PGM it names, relative to the YAML's folder) the
 /// way map_server's loader does: occ = (255 - v) / 255 (v / 255 with negate), occ >
 /// occupied_thresh -> obstacle, occ < free_thresh -> clear, else unknown; the image's

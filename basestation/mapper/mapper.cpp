@@ -359,6 +359,15 @@ std::vector<Vec2> Mapper::trajectory(std::uint16_t robot) const {
   return out;
 }
 
+std::vector<TimedPose> Mapper::body_trajectory(std::uint16_t robot) const {
+  std::vector<TimedPose> out;
+  for (const Stored& s : store_) {
+    if (s.info.robot_id == robot) out.push_back({s.info.stamp, compose(s.info.pose, inverse(s.info.sensor_offset))});
+  }
+  std::stable_sort(out.begin(), out.end(), [](const TimedPose& a, const TimedPose& b) { return a.stamp < b.stamp; });
+  return out;
+}
+
 std::vector<std::uint16_t> Mapper::robots() const {
   std::vector<std::uint16_t> out;
   for (const auto& [id, n] : seen_) out.push_back(id);

@@ -104,6 +104,12 @@ struct ScanInfo {
   Pose2 pose;           // the global sensor pose it is rendered at now
 };
 
+/// A robot's body pose (global) at a time of its clock.
+struct TimedPose {
+  Nanos stamp = 0;
+  Pose2 pose;
+};
+
 struct RerenderStats {
   std::size_t examined = 0, moved = 0, removed = 0;
 };
@@ -152,6 +158,9 @@ class Mapper {
 
   /// The global sensor positions of a robot's stored scans, oldest first (for figures).
   std::vector<Vec2> trajectory(std::uint16_t robot) const;
+  /// The robot's body poses at its stored scans (the sensor pose as rendered now ⊕ the
+  /// inverse of the laser's mount), in time order: the trajectory the map was built from.
+  std::vector<TimedPose> body_trajectory(std::uint16_t robot) const;
   std::vector<std::uint16_t> robots() const;
 
   const MapperCounters& counters() const { return counters_; }

@@ -244,6 +244,11 @@ TEST(GridMapNode, ExportIsWhatMapServerReadsAndAFailedExportIsReportedNotThrown)
   EXPECT_TRUE(back.cells == now.cells);
   EXPECT_GT(std::filesystem::file_size(dir / "out" / "map.png"), 1000u);
   EXPECT_TRUE(std::filesystem::exists(dir / "out" / "landmarks.json"));
+  // The trajectory the map was built from: robot 1's one scan, in robot time.
+  const auto poses = mapper::read_trajectories_csv((dir / "out" / "trajectories.csv").string());
+  ASSERT_EQ(poses.size(), 1u);
+  EXPECT_EQ(poses[0].robot, 1);
+  EXPECT_EQ(poses[0].stamp, room_scan(1, 1).stamp);
   EXPECT_EQ(node.counters().exports, 1u);
 
   // A file where the folder should be: the export fails, says why, and nothing throws.

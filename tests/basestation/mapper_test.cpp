@@ -291,5 +291,30 @@ TEST(MapperConfig, ReadsTheMapperSectionStrictly) {
   EXPECT_THROW(typo.finish(), ConfigError);
 }
 
+// The trajectory the map was built from, as the base exports it: the robot's body pose at
+// each stored scan (the sensor pose ⊕ the inverse of the laser's mount), in time order.
+TEST(Mapper, BodyTrajectoryUndoesTheLaserMountAndIsInTimeOrder) {
+  Mapper m(small_config());
+  msg::LaserScan a = make_scan(1, {1.0}, 0.0, 0.0);
+  a.sensor_offset = {0.2, 0.0, 0.0};
+  a.stamp = 2'000'000'000;
+  msg::LaserScan b = a;
+  b.stamp = 1'000'000'000;  // older, stored after
+  ASSERT_EQ(m.add_scan(a, {0.0, 1.2, std::numbers::pi / 2}), Mapper::AddResult::kInserted);
+  ASSERT_EQ(m.add_scan(b, {1.2, 0.0, 0.0}), Mapper::AddResult::kInserted);
+  ASSERT_EQ(m.add_scan(make_scan(2, {1.0}, 0.0, 0.0), {0.0, 0.0, 0.0}), Mapper::AddResult::kInserted);
+  const std::vector<TimedPose> t = m.body_trajectory(1);
+  ASSERT_EQ(t.size(), 2u);
+  EXPECT_EQ(t[0].stamp, 1'000'000'000);
+  EXPECT_NEAR(t[0].pose.x, 1.0, 1e-12);
+  EXPECT_NEAR(t[0].pose.y, 0.0, 1e-12);
+  EXPECT_EQ(t[1].stamp, 2'000'000'000);
+  EXPECT_NEAR(t[1].pose.x, 0.0, 1e-12);
+  EXPECT_NEAR(t[1].pose.y, 1.0, 1e-12);
+  EXPECT_NEAR(t[1].pose.theta, std::numbers::pi / 2, 1e-12);
+  EXPECT_EQ(m.body_trajectory(2).size(), 1u);
+  EXPECT_TRUE(m.body_trajectory(3).empty());
+}
+
 }  // namespace
 }  // namespace cairn::mapper

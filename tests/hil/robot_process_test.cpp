@@ -27,6 +27,7 @@
 #include "basestation/mapper/export.hpp"
 #include "hil/world/world.hpp"
 #include "tools/map_quality/map_quality.hpp"
+#include "tools/map_quality/pose_quality.hpp"
 #include "tests/support/subprocess.hpp"
 
 namespace cairn {
@@ -198,9 +199,9 @@ TEST(RobotProcess, DrivesItsRouteThroughTheRealDriversWithFaultsAndTheBaseFollow
   // 92.7 % / 2.5 cells (the base's end pose 0.21 m off), so there the bounds are wider,
   // still well clear of wrong frames.
 #ifdef CAIRN_SANITIZED
-  constexpr double kMinAgreement = 0.90, kMaxWallOffsetCells = 4.0;
+  constexpr double kMinAgreement = 0.90, kMaxWallOffsetCells = 4.0, kMaxPoseRmse = 0.35;
 #else
-  constexpr double kMinAgreement = 0.93, kMaxWallOffsetCells = 2.0;
+  constexpr double kMinAgreement = 0.93, kMaxWallOffsetCells = 2.0, kMaxPoseRmse = 0.15;
 #endif
   const auto fusion_line = base.output().rfind("fusion: odometry");
   std::printf("base's last %s\n", fusion_line == std::string::npos ? "fusion line: none"
@@ -209,6 +210,17 @@ TEST(RobotProcess, DrivesItsRouteThroughTheRealDriversWithFaultsAndTheBaseFollow
   EXPECT_GE(q.agreement, kMinAgreement);
   EXPECT_LE(q.wall_offset_mean_cells(), 1.0);
   EXPECT_LE(q.wall_offset_max_cells(), kMaxWallOffsetCells);
+  // The trajectory the map was built from (the base's trajectories.csv, robot time) against
+  // the bench's truth at the same instants: a frame metres off, or robot and bench clocks
+  // that disagree, fail here; the end-pose check below sees one instant only.
+  const tools::PoseQuality pq = tools::evaluate_poses(mapper::read_trajectories_csv((dir / "map" / "trajectories.csv").string()),
+                                                      tools::read_ground_truth((dir / "truth.txt").string()));
+  std::printf("base's trajectory against the truth: %zu poses scored, %zu not; rmse %.3f m, max %.3f m\n", pq.samples,
+              pq.robots.empty() ? 0 : pq.robots[0].unscored, pq.rmse_m, pq.max_m);
+  ASSERT_EQ(pq.robots.size(), 1u);
+  EXPECT_GT(pq.samples, 200u);
+  EXPECT_LE(pq.robots[0].unscored * 50, pq.samples);  // at most 2 %
+  EXPECT_LT(pq.rmse_m, kMaxPoseRmse);
 
   const auto final_line = hil.wait_for_line("final robot 1 at", 1s);
   ASSERT_TRUE(final_line) << hil.output();

@@ -1,5 +1,7 @@
 #include "tools/map_quality/map_quality.hpp"
 
+#include "tools/map_quality/pose_quality.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <deque>
@@ -284,12 +286,26 @@ nlohmann::json json_of(const LandmarkQuality& q) {
 
 std::string to_json(const LandmarkQuality& q) { return json_of(q).dump(); }
 
-std::string to_json(const MapQuality& q, const LandmarkQuality& l) {
-  nlohmann::json j = json_of(q);
-  j["landmarks"] = json_of(l);
-  return j.dump();
-}
+std::string to_json(const MapQuality& q, const LandmarkQuality& l) { return to_json(q, &l, nullptr); }
 
 std::string to_json(const MapQuality& q) { return json_of(q).dump(2); }
+
+std::string to_json(const MapQuality& q, const LandmarkQuality* l, const PoseQuality* p) {
+  nlohmann::json j = json_of(q);
+  if (l) j["landmarks"] = json_of(*l);
+  if (p) {
+    nlohmann::json robots = nlohmann::json::array();
+    for (const RobotPoseQuality& r : p->robots) {
+      robots.push_back({{"robot", r.robot},
+                        {"samples", r.samples},
+                        {"unscored", r.unscored},
+                        {"rmse_m", r.rmse_m},
+                        {"max_m", r.max_m},
+                        {"heading_rmse_rad", r.heading_rmse_rad}});
+    }
+    j["poses"] = {{"samples", p->samples}, {"rmse_m", p->rmse_m}, {"max_m", p->max_m}, {"robots", robots}};
+  }
+  return j.dump();
+}
 
 }  // namespace cairn::tools

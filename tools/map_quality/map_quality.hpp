@@ -56,6 +56,8 @@ MapQuality evaluate(const mapper::ClassGrid& map, const hil::World& world, const
 std::string to_text(const MapQuality& q);
 std::string to_json(const MapQuality& q);
 
+struct PoseQuality;  // tools/map_quality/pose_quality.hpp
+
 /// Mapped landmarks against the world's poles (the base's global frame is the world's on
 /// the HIL bench): each pole is paired with the nearest unpaired landmark within match_m,
 /// nearest pairs first.
@@ -71,6 +73,9 @@ std::string to_text(const LandmarkQuality& q);
 std::string to_json(const LandmarkQuality& q);
 /// The map's JSON with the landmarks' under "landmarks".
 std::string to_json(const MapQuality& q, const LandmarkQuality& l);
+/// The map's JSON with, when given, the landmarks' under "landmarks" and the robot poses'
+/// (tools/map_quality/pose_quality.hpp) under "poses".
+std::string to_json(const MapQuality& q, const LandmarkQuality* l, const PoseQuality* p);
 
 /// The truth as a map (wall -> obstacle, free -> clear, other -> unknown): what a
 /// perfect mapper would produce.
