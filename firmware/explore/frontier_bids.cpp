@@ -167,9 +167,12 @@ Cell FrontierBidder::class_of(const Cell* cells, std::size_t k) const {
 }
 
 // A frontier cell: clear, with an unknown 4-neighbour (4, not 8: an unknown cell seen only
-// diagonally, past the corner of a wall, is not an opening).
+// diagonally, past the corner of a wall, is not an opening). Never a cell of the robot's
+// footprint: the robot stands there already (it would "arrive" at once, bid it again and
+// never move; what lies behind it is reached from the frontier cells beside it).
 bool FrontierBidder::is_frontier(const GridGeometry& g, const Cell* cells, int i, int j) const {
-  if (class_of(cells, g.index(i, j)) != Cell::kClear) return false;
+  const std::size_t k = g.index(i, j);
+  if ((flags_[k] & kFootprint) || cells[k] != Cell::kClear) return false;
   for (int d = 0; d < 4; ++d)
     if (g.contains(i + kDi4[d], j + kDj4[d]) && class_of(cells, g.index(i + kDi4[d], j + kDj4[d])) == Cell::kUnknown)
       return true;
