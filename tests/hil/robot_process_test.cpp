@@ -199,7 +199,7 @@ TEST(RobotProcess, DrivesItsRouteThroughTheRealDriversWithFaultsAndTheBaseFollow
   // 92.7 % / 2.5 cells (the base's end pose 0.21 m off), so there the bounds are wider,
   // still well clear of wrong frames.
 #ifdef CAIRN_SANITIZED
-  constexpr double kMinAgreement = 0.90, kMaxWallOffsetCells = 4.0, kMaxPoseRmse = 0.35;
+  constexpr double kMinAgreement = 0.90, kMaxWallOffsetCells = 4.0, kMaxPoseRmse = 0.5;
 #else
   constexpr double kMinAgreement = 0.93, kMaxWallOffsetCells = 2.0, kMaxPoseRmse = 0.15;
 #endif
@@ -212,7 +212,8 @@ TEST(RobotProcess, DrivesItsRouteThroughTheRealDriversWithFaultsAndTheBaseFollow
   EXPECT_LE(q.wall_offset_max_cells(), kMaxWallOffsetCells);
   // The trajectory the map was built from (the base's trajectories.csv, robot time) against
   // the bench's truth at the same instants: a frame metres off, or robot and bench clocks
-  // that disagree, fail here; the end-pose check below sees one instant only.
+  // seconds apart, fail here; the end-pose check below sees one instant only. One release
+  // run: 370 poses, RMSE 0.084 m, max 0.173 m (the faults included).
   const tools::PoseQuality pq = tools::evaluate_poses(mapper::read_trajectories_csv((dir / "map" / "trajectories.csv").string()),
                                                       tools::read_ground_truth((dir / "truth.txt").string()));
   std::printf("base's trajectory against the truth: %zu poses scored, %zu not; rmse %.3f m, max %.3f m\n", pq.samples,
