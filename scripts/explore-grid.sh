@@ -9,6 +9,7 @@
 # issue is missed (in world A: two robots reach 95 % >= 1.6x sooner than one; three
 # coordinated robots >= 25 % sooner than three uncoordinated).
 #   scripts/explore-grid.sh [RUNS] [OUT]        e.g. scripts/explore-grid.sh 3 /tmp/grid
+#   GRID_TABLE_ONLY=1 scripts/explore-grid.sh RUNS [OUT]   only rewrite OUT/grid.md from the last runs
 set -euo pipefail
 cd "$(dirname "$0")/.."
 runs=${1:-10}
@@ -23,6 +24,7 @@ start=$(date +%s)
 grid() {  # LETTER WORLD EXTRA-ARGS...
   local letter=$1 world=$2
   shift 2
+  [ -n "${GRID_TABLE_ONLY:-}" ] && return 0
   echo "== explore-grid: world $letter ($world), $(( $(date +%s) - start )) s so far"
   "$bin" explore --world "hil/worlds/$world" --robots 1,2,3 --runs "$runs" --seed 1 --out "$work/$letter" "$@" >/dev/null
   cp "$work/$letter/coverage.png" "$out/$letter-coverage.png"
@@ -39,6 +41,7 @@ import json, sys
 work, out, runs, wall = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
 names = {"A": "office (one corridor, rooms)", "B": "two parallel corridors", "C": "open hall",
          "D": "15 % random 1 m blocks, a new map each run", "E": "10 % random 0.5 m clutter, a new map each run"}
+wall = round(sum(json.load(open(f"{work}/{w}/summary.json"))["wall_seconds"] for w in "ABCDE"))
 lines = [f"Made by `scripts/explore-grid.sh {runs}` in {wall} s wall. Times are simulated seconds "
          "(mean ± sd over the runs that reached the level; \"k of n\" when not all did); "
          f"a failure is a final map that agrees with the truth on fewer than 75 % of its known cells.", ""]
@@ -48,11 +51,12 @@ for w in "ABCDE":
     s = json.load(open(f"{work}/{w}/summary.json"))
     summaries[w] = s
     lines += [f"### {w}: {names[w]}", "", open(f"{work}/{w}/table.md").read().rstrip(), ""]
-    sp = {k: v for k, v in s["speedup_to_95"].items()}
-    lines.append("Speedup to 95 %: " + ", ".join(f"{k.replace('_vs_', ' vs ')} robots {v:.2f}x" if v is not None
-                                                   else f"{k.replace('_vs_', ' vs ')} robots n/a" for k, v in sp.items()))
+    text = "Mean time to 95 %, ratio (n/a unless every run of both reached 95 %): " + ", ".join(
+        f"{k.split('_vs_')[1]} robot(s) / {k.split('_vs_')[0]} robots {v:.2f}x" if v is not None
+        else f"{k.split('_vs_')[1]} robot(s) / {k.split('_vs_')[0]} robots n/a" for k, v in s["speedup_to_95"].items())
     for k, v in s["coordination_gain_to_95"].items():
-        lines.append(f"; coordinated vs uncoordinated, {k} robots: " + (f"{v:.2f}x" if v is not None else "n/a"))
+        text += f"; uncoordinated / coordinated, {k} robots " + (f"{v:.2f}x" if v is not None else "n/a")
+    lines.append(text + ".")
     lines += ["", f"![{w} coverage]({w}-coverage.png) ![{w} time to coverage]({w}-time-to-coverage.png)", ""]
     for r in s["runs"]:
         if not r["explored"]:
