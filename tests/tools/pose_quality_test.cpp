@@ -34,6 +34,17 @@ std::string truth_text() {
 
 Nanos at(double t_s) { return kT0 + static_cast<Nanos>(std::llround(t_s * 1e9)); }
 
+// The message a reader throws for `text`, or "no error".
+template <typename Parse>
+std::string error_of(Parse parse, const std::string& text) {
+  try {
+    parse(text);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
 TEST(PoseQuality, ReadsTheBenchTruthFile) {
   const GroundTruth g = parse_ground_truth(truth_text(), "truth.txt");
   EXPECT_EQ(g.t0, kT0);
@@ -45,12 +56,7 @@ TEST(PoseQuality, ReadsTheBenchTruthFile) {
 
 TEST(PoseQuality, RefusesABadTruthFileNamingTheLine) {
   auto message = [](const std::string& text) {
-    try {
-      parse_ground_truth(text, "t.txt");
-    } catch (const std::runtime_error& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
+    return error_of([](const std::string& t) { parse_ground_truth(t, "t.txt"); }, text);
   };
   EXPECT_NE(message("0.0 1 1 2 0 0\n").find("no '# t0_monotonic_ns' line"), std::string::npos);
   EXPECT_NE(message("# t0_monotonic_ns 1\n0.0 1 1 2 0\n").find("t.txt:2: expected"), std::string::npos);
@@ -112,12 +118,7 @@ TEST(PoseQuality, TrajectoryCsvRoundTripsAndABadLineIsNamed) {
   EXPECT_EQ(out[1].stamp, -5);
   fs::remove(path);
   auto message = [](const std::string& text) {
-    try {
-      mapper::parse_trajectories_csv(text, "t.csv");
-    } catch (const std::runtime_error& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
+    return error_of([](const std::string& t) { mapper::parse_trajectories_csv(t, "t.csv"); }, text);
   };
   EXPECT_NE(message("").find("t.csv: empty"), std::string::npos);
   EXPECT_NE(message("x,y\n").find("t.csv:1: expected the header"), std::string::npos);
