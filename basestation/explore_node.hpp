@@ -3,8 +3,7 @@
 // taken only from a robot the fusion has localised (its global pose is what the
 // allocator's progress monitor watches; an unknown id cannot grow the allocator's
 // tables); others are counted. A robot the fleet reports lost gives its task back, and
-// its return gives it a link again. An operator's VisitRequest (`cairn-base --visit`, the
-// web view) is taken only for a localised robot and a finite target within reach of any
+// its return gives it a link again. An operator's VisitRequest (`cairn-base --visit`) is taken only for a localised robot and a finite target within reach of any
 // building; the allocator then sends the robot there and covers for its frontier.
 #pragma once
 

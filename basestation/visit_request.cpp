@@ -27,7 +27,9 @@ VisitResult request_visit(const dds::Participant& pp, const VisitRequestOptions&
   dds::Topic<cairn_VisitRequest> visit_topic(pp);
   dds::Writer<cairn_VisitRequest> writer(pp, visit_topic, dds::state_qos(1));
   dds::Topic<cairn_TaskAssignment> task_topic(pp);
-  dds::Reader<cairn_TaskAssignment> tasks(pp, task_topic, dds::latched_qos());
+  // Deeper than the base's writer: a GOTO replaced at once (a target within the arrival
+  // radius, the end of exploration) must still be seen.
+  dds::Reader<cairn_TaskAssignment> tasks(pp, task_topic, dds::latched_qos(8));
 
   VisitResult res;
   auto finish = [&](VisitOutcome outcome, const std::string& why) {
@@ -40,7 +42,13 @@ VisitResult request_visit(const dds::Participant& pp, const VisitRequestOptions&
                                          "running, with [explore] enabled?)");
   }
   // The robot's current task (latched) arrives first: only a task id above it confirms, so
-  // an earlier visit to the same place does not.
+  // an earlier visit to the same place does not. Its history can only come once the base's
+  // task writer is matched: wait for that, then a little for the sample.
+  dds_subscription_matched_status_t matched{};
+  while (clock.now() < deadline &&
+         !(dds_get_subscription_matched_status(tasks.handle(), &matched) == DDS_RETCODE_OK && matched.current_count > 0)) {
+    dds_sleepfor(DDS_MSECS(10));
+  }
   bool any_task = false;
   std::uint32_t last_task = 0;
   bool confirmed = false;
@@ -89,7 +97,7 @@ VisitResult request_visit(const dds::Participant& pp, const VisitRequestOptions&
                 "no task sent the robot there within " + std::to_string(static_cast<int>(nanos_to_seconds(o.timeout))) +
                     " s after " + std::to_string(res.sent) +
                     " sends: the base refuses a robot it has not localised or has lost and a target beyond 10 km, and "
-                    "assigns nothing with exploration off (its log says which)");
+                    "assigns nothing with exploration off (its explore: line counts refusals)");
 }
 
 }  // namespace cairn::base

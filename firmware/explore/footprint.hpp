@@ -22,7 +22,9 @@ template <typename OnCell>  // void(std::size_t cell_index)
 void for_each_footprint_cell(const GridGeometry& g, const Cell* cells, Vec2 at, double radius_m, OnCell&& on_cell) {
   int ci = 0, cj = 0;
   if (!g.cell_of(at.x(), at.y(), &ci, &cj)) return;
-  const int reach = static_cast<int>(std::ceil(std::max(radius_m, 0.0) / g.resolution)) + 1;
+  // In double, clamped to the map: a tiny resolution from the network must not overflow.
+  const double reach_cells = std::ceil(std::max(radius_m, 0.0) / g.resolution) + 1;
+  const int reach = static_cast<int>(std::min(reach_cells, static_cast<double>(std::max(g.width, g.height))));
   const double r2 = radius_m * radius_m + 1e-9;  // a centre exactly on the circle is in
   for (int j = std::max(cj - reach, 0); j <= std::min(cj + reach, g.height - 1); ++j)
     for (int i = std::max(ci - reach, 0); i <= std::min(ci + reach, g.width - 1); ++i) {

@@ -73,8 +73,6 @@ TEST(ExploreCli, OfficeOneAndTwoRobotsBothModes) {
   // (one robot takes about 80 s, two about 45 s).
   for (const auto& g : s["groups"]) ASSERT_EQ(g["time_to_coverage_s"]["50"]["reached"], 1) << g.dump(2);
   EXPECT_LT(g2["time_to_coverage_s"]["50"]["mean"].get<double>(), 0.8 * g1["time_to_coverage_s"]["50"]["mean"].get<double>());
-  // No run explored the whole office in 120 s, so no speedup to 95 % can be claimed.
-  EXPECT_TRUE(s["speedup_to_95"]["2_vs_1"].is_null());
   // The summary's times are the runs' own records, the maps are sane and written.
   for (const auto& r : s["runs"]) {
     const std::string name =

@@ -196,7 +196,7 @@ TEST(FrontierBids, RobotWhoseOwnCellsAreUnseenStillBids) {
     EXPECT_GT(bid.items[k].gain, 0);
     // Never a cell the robot stands on: it would arrive at once and never move (seen in
     // world B when the footprint first counted as clear).
-    EXPECT_GT(std::hypot(bid.items[k].x - robot.x, bid.items[k].y - robot.y), 0.30) << i << " " << j;
+    EXPECT_GT(std::hypot(bid.items[k].x - robot.x, bid.items[k].y - robot.y), 0.30 + 1e-6) << i << " " << j;
   }
   EXPECT_TRUE(far_frontier) << "the opening at i = 30 is reachable through the footprint";
   // An obstacle under the disc stays one: a robot the map puts inside a wall is refused.

@@ -211,9 +211,10 @@ TEST(RobotProcess, DrivesItsRouteThroughTheRealDriversWithFaultsAndTheBaseFollow
   EXPECT_LE(q.wall_offset_mean_cells(), 1.0);
   EXPECT_LE(q.wall_offset_max_cells(), kMaxWallOffsetCells);
   // The trajectory the map was built from (the base's trajectories.csv, robot time) against
-  // the bench's truth at the same instants: a frame metres off, or robot and bench clocks
-  // seconds apart, fail here; the end-pose check below sees one instant only. One release
-  // run: 370 poses, RMSE 0.084 m, max 0.173 m (the faults included).
+  // the bench's truth at the same instants: a frame metres off fails here (and, in release,
+  // robot and bench clocks a second apart); the end-pose check below sees one instant
+  // only. One release run: 370 poses, RMSE 0.084 m, max 0.173 m (the faults included).
+  // The sanitizer bound is wide: no sanitized run of this check has been recorded yet.
   const tools::PoseQuality pq = tools::evaluate_poses(mapper::read_trajectories_csv((dir / "map" / "trajectories.csv").string()),
                                                       tools::read_ground_truth((dir / "truth.txt").string()));
   std::printf("base's trajectory against the truth: %zu poses scored, %zu not; rmse %.3f m, max %.3f m\n", pq.samples,
