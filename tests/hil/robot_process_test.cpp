@@ -171,8 +171,14 @@ TEST(RobotProcess, DrivesItsRouteThroughTheRealDriversWithFaultsAndTheBaseFollow
     at_goal = near;
     if (at_goal && !latched && std::chrono::steady_clock::now() - at_goal_since > 3s) break;  // not while latched: reset first
   }
+  std::string seen;
+  for (int r : reasons) seen += " " + std::to_string(r);
   ASSERT_TRUE(at_goal) << "route not completed: last local pose " << last.local_pose.x << " " << last.local_pose.y
-                       << ", goal " << goal_local.transpose() << "\n" << robot.output() << "\n" << hil.output();
+                       << ", goal " << goal_local.transpose() << "; last stop reason " << static_cast<int>(last.stop_reason)
+                       << " (" << last.stop_text << "), mode " << static_cast<int>(last.mode) << ", reasons seen" << seen
+                       << ", e-stop episodes " << episodes << ", other latches " << other_latches << ", resets sent "
+                       << resets_sent << ", SIGUSR1 sent " << signals_sent << "\n"
+                       << robot.output() << "\n" << hil.output();
   const Pose2 local{last.local_pose.x, last.local_pose.y, last.local_pose.theta};
   // The operator asks the running base for its map (SIGUSR1): written at once.
   base.signal(SIGUSR1);
