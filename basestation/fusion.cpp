@@ -112,6 +112,7 @@ Fusion::Result Fusion::on_odometry(const msg::OdometryIncrement& m) {
     t.have_odometry = true;
     t.odom_seq = m.seq;
     t.local = local;
+    t.local_t = m.t1;
     remember(t, Mat3::Zero());
     ++counters_.odometry_applied;
     drain_pending(m.robot_id, t);
@@ -143,6 +144,7 @@ Fusion::Result Fusion::on_odometry(const msg::OdometryIncrement& m) {
   }
   t.odom_seq = m.seq;
   t.local = local;
+  t.local_t = m.t1;
   remember(t, cov);
   ++counters_.odometry_applied;
   drain_pending(m.robot_id, t);
@@ -400,6 +402,11 @@ bool Fusion::correction(std::uint16_t robot, Nanos stamp, msg::PoseCorrection* o
   out->local_to_global = compose(global, inverse(t.local));
   out->global_cov = msg::to_cov(filter_.robot_cov(robot));
   return true;
+}
+
+Nanos Fusion::estimate_time(std::uint16_t robot) const {
+  auto it = tracks_.find(robot);
+  return it != tracks_.end() && it->second.have_odometry ? it->second.local_t : 0;
 }
 
 std::vector<std::uint16_t> Fusion::robots() const {

@@ -83,6 +83,9 @@ class Fusion {
 
   /// The correction for one robot; false if the robot is unknown or not yet localised.
   bool correction(std::uint16_t robot, Nanos stamp, msg::PoseCorrection* out) const;
+  /// The robot-clock time of the pose a correction is computed at (its latest applied
+  /// odometry's t1); 0 for a robot without odometry.
+  Nanos estimate_time(std::uint16_t robot) const;
   std::vector<std::uint16_t> robots() const;
   /// Every landmark of the map (all of them: the DDS edge pages them), into a caller's buffer.
   void landmarks(std::vector<msg::Landmark>* out) const;
@@ -110,6 +113,7 @@ class Fusion {
     bool have_odometry = false;
     std::uint32_t odom_seq = 0;
     Pose2 local;  // robot's local pose at odom_seq
+    Nanos local_t = 0;  // its time (t1), the robot's clock
     bool have_features = false;
     std::uint32_t feature_seq = 0;
     bool localized = false;

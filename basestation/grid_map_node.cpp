@@ -34,6 +34,7 @@ int GridMapNode::tiles_x() const { return (mapper_.geometry().width + kTile - 1)
 int GridMapNode::tiles_y() const { return (mapper_.geometry().height + kTile - 1) / kTile; }
 
 void GridMapNode::poll(Nanos now, const Fusion& fusion) {
+  frames_.record(fusion);
   scan_reader_.take([&](const cairn_LaserScan& s, const dds_sample_info_t&) {
     ++counters_.scans_taken;
     msg::LaserScan scan;
@@ -41,12 +42,7 @@ void GridMapNode::poll(Nanos now, const Fusion& fusion) {
       ++counters_.scans_malformed;
       return;
     }
-    msg::PoseCorrection c;
-    if (!fusion.correction(scan.robot_id, scan.stamp, &c)) {
-      ++counters_.scans_unplaced;
-      return;
-    }
-    (void)mapper_.add_scan_local(scan, c.local_to_global);  // refusals are the mapper's counters
+    if (!frames_.place(mapper_, scan, fusion)) ++counters_.scans_unplaced;  // refusals are the mapper's counters
   });
   if (now >= next_reframe_) {
     next_reframe_ = now + cfg_.map_reframe_period;
@@ -59,12 +55,10 @@ void GridMapNode::poll(Nanos now, const Fusion& fusion) {
 }
 
 void GridMapNode::reframe(const Fusion& fusion) {
-  for (std::uint16_t id : mapper_.robots()) {
-    msg::PoseCorrection c;
-    // The frame the fusion has for the robot now: scans placed with an older estimate of it
-    // move when the difference exceeds the mapper's rerender_shift_m.
-    if (fusion.correction(id, 0, &c)) (void)mapper_.on_frame_corrected(id, c.local_to_global);
-  }
+  // Each stored scan at the frame the fusion had for its robot at the scan's time, as far
+  // as the fusion knows it now: scans move when that differs by more than rerender_shift_m.
+  frames_.record(fusion);
+  frames_.rerender(mapper_);
 }
 
 void GridMapNode::publish_dirty() {

@@ -1,9 +1,9 @@
 // The base station's central mapper on DDS (docs/mapper.md, "In cairn-base"):
 //  - every robot's LaserScan (the robots send every Nth scan) is placed at the fusion's
-//    estimate of that robot's local frame at the scan's time; a robot the fusion has not
-//    localised yet has no place for it (counted, not inserted);
-//  - every reframe period the stored scans of robots whose frame the fusion moved are
-//    re-rendered where it now puts them;
+//    estimate of that robot's local frame at the scan's time (MapFrames); a robot the
+//    fusion has not localised yet has no place for it (counted, not inserted);
+//  - every reframe period the stored scans whose frame at their time the fusion has moved
+//    since (a later update spreads over the scans since the one before) are re-rendered;
 //  - changed tiles go out as MapTile (reliable, transient-local, one instance per tile,
 //    keep-last 1): a robot that starts late receives the whole map, not just what changed;
 //  - export() writes the map as map_server's PGM + YAML, a PNG with trajectories and
@@ -17,6 +17,7 @@
 
 #include "basestation/base_config.hpp"
 #include "basestation/fusion.hpp"
+#include "basestation/map_frames.hpp"
 #include "basestation/mapper/mapper.hpp"
 #include "common/dds/topics.hpp"
 #include "common/occupancy_grid.hpp"
@@ -69,6 +70,7 @@ class GridMapNode {
 
   const BaseConfig& cfg_;
   mapper::Mapper mapper_;
+  MapFrames frames_;
   dds::Topic<cairn_LaserScan> scan_topic_;
   dds::Topic<cairn_MapTile> tile_topic_;
   dds::Reader<cairn_LaserScan> scan_reader_;

@@ -72,7 +72,12 @@ TEST(ExploreSim, TheAllocatorCoordinatesTheRobots) {
   const auto& d = s.explore->driver;
   const auto& a = s.explore->allocator;
   EXPECT_GE(a.explore_assigned, 4u);
-  EXPECT_EQ(d.plan_failures, 0u);
+  // A plan fails when the map closed the way to a target after the bid (a frontier in a
+  // doorway that newer scans narrowed): the robot stands until the monitor reassigns it.
+  // Rare, not never: seed 5 has 1 of 181 plans (0 before scans were placed at the frames
+  // of their times, which changed the run); a planner that fails often trips this.
+  EXPECT_GT(d.plans, 100u);
+  EXPECT_LE(d.plan_failures * 50, d.plans);
   // Bid periods (2 s) with both robots on explore tasks on different frontiers: most of them.
   EXPECT_GE(d.periods_on_distinct_frontiers, static_cast<std::uint64_t>(kSeconds / 2 * 0.75));
 }

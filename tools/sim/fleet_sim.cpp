@@ -140,16 +140,12 @@ void FleetSim::deliver(Nanos now) {
       if (i.is_laser) {
         // The base's central mapper: the scan placed by the fusion's estimate of the
         // robot's frame; a robot not yet localised has no place for it (counted).
-        msg::PoseCorrection c;
-        if (fusion_->correction(i.laser.robot_id, i.laser.stamp, &c)) {
-          (void)mapper_->add_scan_local(i.laser, c.local_to_global);
-        } else {
-          ++map_scans_unplaced_;
-        }
+        if (!map_frames_.place(*mapper_, i.laser, *fusion_)) ++map_scans_unplaced_;
       } else if (i.is_odometry) {
         (void)fusion_->on_odometry(i.odometry);
       } else {
         (void)fusion_->on_features(i.features);
+        map_frames_.record(*fusion_, i.features.robot_id);  // an update: the robot's frame may move
       }
       box->items.pop_front();
     }
@@ -167,17 +163,13 @@ void FleetSim::share_world() {
   }
 }
 
-// Every map_reframe_period and at the end, as the base does on its corrections: the
-// stored scans of a robot whose frame the fusion moved are re-rendered where it now puts
-// them. (Each re-render redraws every scan of a robot whose frame moved by more than half
-// a cell at 15 m: a second's period made it a third of the run's CPU.)
+// Every map_reframe_period and at the end, as the base does: the stored scans whose
+// frame at their time the fusion has moved since are re-rendered where it now puts them.
+// (A re-render pass looks at every stored scan: a second's period made it a third of the
+// run's CPU.)
 void FleetSim::reframe_map() {
-  for (const auto& r : robots_) {
-    msg::PoseCorrection c;
-    if (fusion_->correction(static_cast<std::uint16_t>(r->id()), now_, &c)) {
-      (void)mapper_->on_frame_corrected(static_cast<std::uint16_t>(r->id()), c.local_to_global);
-    }
-  }
+  map_frames_.record(*fusion_);
+  map_frames_.rerender(*mapper_);
 }
 
 std::vector<mapper::Trajectory> FleetSim::estimated_trajectories() const {

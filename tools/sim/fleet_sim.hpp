@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "basestation/fusion.hpp"
+#include "basestation/map_frames.hpp"
 #include "basestation/mapper/export.hpp"
 #include "basestation/mapper/mapper.hpp"
 #include "tools/map_quality/map_quality.hpp"
@@ -138,6 +139,7 @@ class FleetSim {
   std::vector<std::unique_ptr<Outbox>> outboxes_;  // one per robot
   std::unique_ptr<base::Fusion> fusion_;
   std::unique_ptr<mapper::Mapper> mapper_;
+  base::MapFrames map_frames_;
   std::uint64_t map_scans_unplaced_ = 0;
   Nanos next_reframe_ = 0;
   std::vector<RobotSample> samples_;

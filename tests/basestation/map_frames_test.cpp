@@ -1,0 +1,227 @@
+// Scans placed at the frame of their own time: mapper::FrameHistory (record, skip,
+// interpolate, clock going back, capacity) and base::MapFrames with the mapper on a robot
+// whose local frame drifts while it drives along a wall. Redrawing every stored scan with
+// the latest frame (the rule before) bends that wall; the frames of their times keep it.
+#include "basestation/map_frames.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace cairn::base {
+namespace {
+
+using mapper::FrameHistory;
+
+constexpr Nanos kS = kNanosPerSecond;
+
+void expect_pose(const std::optional<Pose2>& p, const Pose2& want, double tol = 1e-12) {
+  ASSERT_TRUE(p.has_value());
+  EXPECT_NEAR(p->x, want.x, tol);
+  EXPECT_NEAR(p->y, want.y, tol);
+  EXPECT_NEAR(normalize_angle(p->theta - want.theta), 0.0, tol);
+}
+
+TEST(FrameHistory, InterpolatesBetweenFramesHoldsTheLastAndKnowsNothingBefore) {
+  FrameHistory h(16);
+  EXPECT_FALSE(h.at(0).has_value());
+  ASSERT_TRUE(h.record(10 * kS, {1.0, 2.0, 0.1}));
+  ASSERT_TRUE(h.record(20 * kS, {2.0, 0.0, 0.3}));
+  EXPECT_FALSE(h.at(10 * kS - 1).has_value());
+  expect_pose(h.at(10 * kS), {1.0, 2.0, 0.1});
+  expect_pose(h.at(15 * kS), {1.5, 1.0, 0.2});
+  expect_pose(h.at(20 * kS), {2.0, 0.0, 0.3});
+  expect_pose(h.at(99 * kS), {2.0, 0.0, 0.3});
+  // Across ±π the turn is the short way round.
+  FrameHistory w(4);
+  ASSERT_TRUE(w.record(0, {0, 0, std::numbers::pi - 0.1}));
+  ASSERT_TRUE(w.record(2 * kS, {0, 0, -std::numbers::pi + 0.1}));
+  expect_pose(w.at(kS), {0, 0, std::numbers::pi}, 1e-9);
+}
+
+TEST(FrameHistory, UnchangedFramesAreNotKeptSoDriftGrowsEvenlyUntilTheUpdate) {
+  // The fusion's frame only moves at an update; polled every second it reads the same
+  // frame until then. Keeping those would put the whole correction between 3 s and 4 s.
+  FrameHistory h(16);
+  for (int s = 0; s < 4; ++s) ASSERT_TRUE(h.record(s * kS, {0.0, 0.0, 0.0}));
+  ASSERT_TRUE(h.record(4 * kS, {0.4, 0.0, 0.0}));
+  EXPECT_EQ(h.size(), 2u);
+  expect_pose(h.at(2 * kS), {0.2, 0.0, 0.0});
+  // Below a millimetre and a tenth of a milliradian is "unchanged"; just above is not.
+  ASSERT_TRUE(h.record(5 * kS, {0.4 + 0.9 * FrameHistory::kMinShiftM, 0.0, 0.9 * FrameHistory::kMinTurnRad}));
+  EXPECT_EQ(h.size(), 2u);
+  ASSERT_TRUE(h.record(6 * kS, {0.4, 0.0, 1.1 * FrameHistory::kMinTurnRad}));
+  EXPECT_EQ(h.size(), 3u);
+}
+
+TEST(FrameHistory, SameTimeReplacesAnOlderTimeDropsTheLaterFramesAndNonFiniteIsRefused) {
+  FrameHistory h(16);
+  ASSERT_TRUE(h.record(kS, {1, 0, 0}));
+  ASSERT_TRUE(h.record(2 * kS, {2, 0, 0}));
+  ASSERT_TRUE(h.record(2 * kS, {3, 0, 0}));  // a second update at the same estimate time
+  EXPECT_EQ(h.size(), 2u);
+  expect_pose(h.at(2 * kS), {3, 0, 0});
+  ASSERT_TRUE(h.record(kS / 2, {7, 0, 0}));  // the robot's clock went back: a reboot
+  EXPECT_EQ(h.size(), 1u);
+  expect_pose(h.at(5 * kS), {7, 0, 0});
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(h.record(9 * kS, {nan, 0, 0}));
+  EXPECT_FALSE(h.record(9 * kS, {0, 0, std::numeric_limits<double>::infinity()}));
+  EXPECT_EQ(h.size(), 1u);
+  EXPECT_THROW(FrameHistory(0), std::invalid_argument);
+}
+
+TEST(FrameHistory, AFullHistoryDropsItsOldestFramesAndCountsThem) {
+  FrameHistory h(3);
+  for (int s = 0; s < 5; ++s) ASSERT_TRUE(h.record(s * kS, {static_cast<double>(s), 0, 0}));
+  EXPECT_EQ(h.size(), 3u);
+  EXPECT_EQ(h.dropped(), 2u);
+  EXPECT_FALSE(h.at(kS).has_value());  // older than every frame kept
+  expect_pose(h.first(), {2, 0, 0});
+  expect_pose(h.at(3 * kS + kS / 2), {3.5, 0, 0});
+}
+
+// A robot drives 1 m/s along x for 20 s, 3 m from a wall at y = 3 (global), one scan
+// a second. Its local frame drifts: local→global C(t) = (0.02 t, -0.03 t, 0.005 t), so
+// by 20 s its local frame is 0.6 m and 5.7° off. The fusion learns C only at updates,
+// every 5 s, and is polled every second (reading the last update's C in between).
+struct DriftingRobot {
+  static Pose2 truth(double t) { return {t, 0.0, 0.0}; }
+  static Pose2 frame(double t) { return {0.02 * t, -0.03 * t, 0.005 * t}; }
+  static msg::LaserScan scan(int second) {
+    const double t = second;
+    msg::LaserScan s;
+    s.robot_id = 1;
+    s.seq = static_cast<std::uint32_t>(second + 1);
+    s.stamp = second * kS;
+    s.pose = compose(inverse(frame(t)), truth(t));  // where the robot believes its sensor is
+    const double first = 25 * std::numbers::pi / 180, inc = std::numbers::pi / 180;
+    s.angle_min = static_cast<float>(first);
+    s.angle_increment = static_cast<float>(inc);
+    s.n_beams = 131;  // 25°..155°: the wall at y = 3 within 7.1 m
+    for (std::uint16_t b = 0; b < s.n_beams; ++b) {
+      const double a = static_cast<double>(s.angle_min) + b * static_cast<double>(s.angle_increment);
+      s.ranges_mm[b] = static_cast<std::uint16_t>(std::lround(3.0 / std::sin(a) * 1000));
+    }
+    return s;
+  }
+};
+
+mapper::MapperConfig corridor_config() {
+  mapper::MapperConfig c;
+  c.resolution_m = 0.1;
+  c.origin_x = -10;
+  c.origin_y = -5;
+  c.width_m = 40;
+  c.height_m = 15;
+  c.max_range_m = 8.0;
+  c.rerender_shift_m = 0.005;
+  return c;
+}
+
+// Obstacle cells more than a cell off the wall's row (y in [3.0, 3.1) is its cell).
+int obstacles_off_the_wall(const mapper::Mapper& m) {
+  int n = 0;
+  for (int j = 0; j < m.geometry().height; ++j) {
+    const double y = m.geometry().origin_y + (j + 0.5) * m.geometry().resolution;
+    for (int i = 0; i < m.geometry().width; ++i) {
+      if (m.classify(i, j) == Cell::kObstacle && std::abs(y - 3.05) > 0.11) ++n;
+    }
+  }
+  return n;
+}
+
+TEST(MapFrames, ScansStayWhereTheRobotWasWhileItsLocalFrameDrifts) {
+  mapper::Mapper map(corridor_config());
+  MapFrames frames;
+  double update_t = 0;
+  for (int second = 0; second <= 20; ++second) {
+    if (second % 5 == 0) update_t = second;
+    // Polled every second: the frame of the last update, at the estimate's time.
+    ASSERT_TRUE(frames.record(1, second * kS, DriftingRobot::frame(update_t)));
+    ASSERT_TRUE(frames.place(map, DriftingRobot::scan(second)));
+    if (second % 5 == 0) frames.rerender(map);
+  }
+  EXPECT_EQ(map.counters().scans_inserted, 21u);
+  // Every scan is drawn where the robot was (within the re-render threshold): between
+  // updates the drift the next one removed grew evenly, as it did here.
+  const std::vector<mapper::TimedPose> traj = map.body_trajectory(1);
+  ASSERT_EQ(traj.size(), 21u);
+  double worst = 0;
+  for (const mapper::TimedPose& p : traj) {
+    const Pose2 want = DriftingRobot::truth(static_cast<double>(p.stamp) / kS);
+    const double off = std::hypot(p.pose.x - want.x, p.pose.y - want.y) +
+                       std::abs(normalize_angle(p.pose.theta - want.theta)) * corridor_config().max_range_m;
+    worst = std::max(worst, off);
+  }
+  std::printf("worst scan placement %.4f m (threshold %.3f m)\n", worst, corridor_config().rerender_shift_m);
+  EXPECT_LE(worst, corridor_config().rerender_shift_m + 1e-9);
+  EXPECT_EQ(obstacles_off_the_wall(map), 0);
+
+  // The rule before: every stored scan redrawn with the robot's latest frame. The first
+  // scans land 0.6 m and 5.7° away from where they were taken and the wall bends.
+  mapper::Mapper latest(corridor_config());
+  for (int second = 0; second <= 20; ++second) {
+    (void)latest.add_scan_local(DriftingRobot::scan(second), DriftingRobot::frame(5.0 * (second / 5)));
+  }
+  (void)latest.on_frame_corrected(1, DriftingRobot::frame(20));
+  std::printf("obstacle cells off the wall: %d with the frames of their times, %d with the latest frame\n",
+              obstacles_off_the_wall(map), obstacles_off_the_wall(latest));
+  EXPECT_GT(obstacles_off_the_wall(latest), 20);
+}
+
+TEST(MapFrames, AScanOlderThanEveryFrameUsesTheFirstAndAnUnknownRobotHasNoPlace) {
+  mapper::Mapper map(corridor_config());
+  MapFrames frames;
+  msg::LaserScan s = DriftingRobot::scan(0);
+  EXPECT_FALSE(frames.place(map, s));  // no frame of robot 1 yet
+  ASSERT_TRUE(frames.record(1, 10 * kS, {0.0, 1.0, 0.0}));
+  s.stamp = 5 * kS;
+  ASSERT_TRUE(frames.place(map, s));
+  ASSERT_EQ(map.body_trajectory(1).size(), 1u);
+  EXPECT_NEAR(map.body_trajectory(1)[0].pose.y, 1.0, 1e-12);
+  s.robot_id = 2;
+  EXPECT_FALSE(frames.place(map, s));
+  // Re-rendering leaves a scan older than every frame where it is.
+  ASSERT_TRUE(frames.record(1, 11 * kS, {0.0, 2.0, 0.0}));
+  frames.rerender(map);
+  EXPECT_NEAR(map.body_trajectory(1)[0].pose.y, 1.0, 1e-12);
+}
+
+TEST(MapFrames, TheFusionsFrameIsRecordedAtItsEstimatesTimeAndOnlyLocalisedRobotsArePlaced) {
+  FusionConfig fc;
+  RobotPrior p;
+  p.known = true;
+  p.pose = {1.0, 2.0, 0.3};
+  p.sigma = Vec3(0.05, 0.05, 0.01);
+  fc.robots[1] = p;
+  Fusion fusion(fc);
+  mapper::Mapper map(corridor_config());
+  MapFrames frames;
+  msg::LaserScan s = DriftingRobot::scan(0);
+  EXPECT_FALSE(frames.place(map, s, fusion));  // no odometry yet: not localised
+  msg::OdometryIncrement o;
+  o.robot_id = 1;
+  o.seq = 1;
+  o.t1 = 7 * kS;
+  o.delta_cov = {1e-6, 0, 0, 0, 1e-6, 0, 0, 0, 1e-6};
+  o.boot_epoch = 3;
+  ASSERT_EQ(fusion.on_odometry(o), Fusion::Result::kApplied);
+  EXPECT_EQ(fusion.estimate_time(1), 7 * kS);
+  EXPECT_EQ(fusion.estimate_time(2), 0);
+  s.stamp = 7 * kS;
+  s.pose = {};
+  ASSERT_TRUE(frames.place(map, s, fusion));
+  ASSERT_EQ(map.body_trajectory(1).size(), 1u);
+  const Pose2 at = map.body_trajectory(1)[0].pose;
+  EXPECT_NEAR(at.x, 1.0, 1e-9);
+  EXPECT_NEAR(at.y, 2.0, 1e-9);
+  EXPECT_NEAR(at.theta, 0.3, 1e-9);
+  s.robot_id = 2;
+  EXPECT_FALSE(frames.place(map, s, fusion));
+}
+
+}  // namespace
+}  // namespace cairn::base
