@@ -92,6 +92,9 @@ done
 wait "$base" || true
 for p in "${pids[@]:2}"; do kill -INT "$p" 2>/dev/null || true; done  # the robots
 sleep 2
+# The bench last: its ground truth file is complete only once it has exited.
+kill -INT "${pids[0]}" 2>/dev/null || true
+wait "${pids[0]}" 2>/dev/null || true
 echo
 echo "demo: robots' own view (last progress lines; full logs in $run/robot-N.log):"
 for id in $(seq "$robots"); do
@@ -103,8 +106,11 @@ done
 [ -f "$run/visit.log" ] && echo "demo: $(cat "$run/visit.log")"
 echo
 echo "demo: the base's map at exit ($run/map: map.png with trajectories and landmark ellipses, map.pgm + map.yaml for map_server, landmarks.json, trajectories.csv), against the ground truth:"
-$B/tools/map_quality/cairn-map-quality --map "$run/map/map.yaml" --world "$world" --landmarks "$run/map/landmarks.json" \
-  --trajectories "$run/map/trajectories.csv" --ground-truth "$run/truth.txt" |
-  sed 's/^/  /' ||
+if [ ! -f "$run/map/map.yaml" ]; then
   echo "demo: no map was written (see $run/base.err)"
+else
+  $B/tools/map_quality/cairn-map-quality --map "$run/map/map.yaml" --world "$world" --landmarks "$run/map/landmarks.json" \
+    --trajectories "$run/map/trajectories.csv" --ground-truth "$run/truth.txt" | sed 's/^/  /' ||
+    echo "demo: cairn-map-quality could not score the map (its message is above)"
+fi
 echo "demo: done (ground truth in $run/truth.txt)"
