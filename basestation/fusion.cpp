@@ -113,6 +113,7 @@ Fusion::Result Fusion::on_odometry(const msg::OdometryIncrement& m) {
     t.odom_seq = m.seq;
     t.local = local;
     t.local_t = m.t1;
+    t.boot_t0 = m.t1;
     remember(t, Mat3::Zero());
     ++counters_.odometry_applied;
     drain_pending(m.robot_id, t);
@@ -404,9 +405,11 @@ bool Fusion::correction(std::uint16_t robot, Nanos stamp, msg::PoseCorrection* o
   return true;
 }
 
-Nanos Fusion::estimate_time(std::uint16_t robot) const {
+bool Fusion::estimate_clock(std::uint16_t robot, EstimateClock* out) const {
   auto it = tracks_.find(robot);
-  return it != tracks_.end() && it->second.have_odometry ? it->second.local_t : 0;
+  if (it == tracks_.end() || !it->second.have_odometry) return false;
+  *out = {it->second.local_t, it->second.epoch, it->second.boot_t0};
+  return true;
 }
 
 std::vector<std::uint16_t> Fusion::robots() const {

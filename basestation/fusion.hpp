@@ -83,9 +83,16 @@ class Fusion {
 
   /// The correction for one robot; false if the robot is unknown or not yet localised.
   bool correction(std::uint16_t robot, Nanos stamp, msg::PoseCorrection* out) const;
-  /// The robot-clock time of the pose a correction is computed at (its latest applied
-  /// odometry's t1); 0 for a robot without odometry.
-  Nanos estimate_time(std::uint16_t robot) const;
+  /// When, on the robot's clock, the pose a correction is computed at holds, and which
+  /// local frame it is of.
+  struct EstimateClock {
+    Nanos t = 0;                   // t1 of the robot's latest applied odometry
+    std::uint32_t boot_epoch = 0;  // the robot's current boot: its local frame
+    Nanos boot_t0 = 0;             // t1 of the first odometry applied in this boot
+  };
+  /// False for a robot without odometry in its current boot (just restarted: its
+  /// correction is still the old local frame's).
+  bool estimate_clock(std::uint16_t robot, EstimateClock* out) const;
   std::vector<std::uint16_t> robots() const;
   /// Every landmark of the map (all of them: the DDS edge pages them), into a caller's buffer.
   void landmarks(std::vector<msg::Landmark>* out) const;
@@ -114,6 +121,9 @@ class Fusion {
     std::uint32_t odom_seq = 0;
     Pose2 local;  // robot's local pose at odom_seq
     Nanos local_t = 0;  // its time (t1), the robot's clock
+    Nanos boot_t0 = 0;  // t1 of this boot's first odometry
+    // (Neither time is in the saved state: after a restore both are 0 until the robot's
+    // next odometry, which only the mapper's frame history reads, and it starts empty.)
     bool have_features = false;
     std::uint32_t feature_seq = 0;
     bool localized = false;

@@ -8,15 +8,22 @@ void MapFrames::record(const Fusion& fusion) {
 
 void MapFrames::record(const Fusion& fusion, std::uint16_t robot) {
   msg::PoseCorrection c;
-  if (fusion.correction(robot, 0, &c)) (void)record(robot, fusion.estimate_time(robot), c.local_to_global);
+  Fusion::EstimateClock when;
+  // A robot that restarted and has sent no odometry yet: its correction is still of the
+  // old local frame, and there is no new time to put it at.
+  if (!fusion.correction(robot, 0, &c) || !fusion.estimate_clock(robot, &when)) return;
+  (void)record(robot, when.t, c.local_to_global, when.boot_epoch, when.boot_t0);
 }
 
-bool MapFrames::record(std::uint16_t robot, Nanos t, const Pose2& local_to_global) {
-  return robots_.try_emplace(robot, capacity_).first->second.record(t, local_to_global);
+bool MapFrames::record(std::uint16_t robot, Nanos t, const Pose2& local_to_global, std::uint32_t boot_epoch, Nanos boot_t0) {
+  return robots_.try_emplace(robot, capacity_).first->second.record(t, local_to_global, boot_epoch, boot_t0);
 }
 
 bool MapFrames::place(mapper::Mapper& map, const msg::LaserScan& scan, const Fusion& fusion) {
-  if (!fusion.localized(scan.robot_id)) return false;
+  // Not localised, or restarted without odometry yet (the scan's local frame may be the
+  // new boot's, which the fusion has not anchored): no place for it.
+  Fusion::EstimateClock when;
+  if (!fusion.localized(scan.robot_id) || !fusion.estimate_clock(scan.robot_id, &when)) return false;
   record(fusion, scan.robot_id);
   return place(map, scan);
 }

@@ -22,13 +22,16 @@ class MapFrames {
   static constexpr std::size_t kDefaultFramesPerRobot = 1u << 16;
   explicit MapFrames(std::size_t frames_per_robot = kDefaultFramesPerRobot) : capacity_(frames_per_robot) {}
 
-  /// Records the frame of every robot the fusion has localised, at its estimate's time.
+  /// Records the frame of every robot the fusion has localised, at its estimate's time
+  /// (Fusion::estimate_clock), as of the robot's current boot.
   void record(const Fusion& fusion);
   void record(const Fusion& fusion, std::uint16_t robot);
-  /// Records one robot's frame (local→global) at robot time t; false if not finite.
-  bool record(std::uint16_t robot, Nanos t, const Pose2& local_to_global);
+  /// Records one robot's frame (local→global) at robot time t, of the local frame of boot
+  /// `boot_epoch` that began at `boot_t0`; false if not finite.
+  bool record(std::uint16_t robot, Nanos t, const Pose2& local_to_global, std::uint32_t boot_epoch = 0, Nanos boot_t0 = 0);
   /// Records the robot's frame, then inserts the scan at the frame of its time. False
-  /// when the fusion has not localised the robot: the scan has no place (the caller counts it).
+  /// when the fusion has not localised the robot, or it restarted and has sent no
+  /// odometry since: the scan has no place (the caller counts it).
   bool place(mapper::Mapper& map, const msg::LaserScan& scan, const Fusion& fusion);
   /// Inserts the scan at its robot's frame of its time (the first frame known for a scan
   /// older than it); false when no frame of the robot is known.

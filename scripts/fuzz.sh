@@ -7,6 +7,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 secs=${1:-30}
 jobs=${2:-$(nproc)}
+[[ $secs =~ ^[1-9][0-9]*$ ]] || { echo "fuzz: SECONDS must be a positive integer, not '$secs'" >&2; exit 2; }
+[[ $jobs =~ ^[1-9][0-9]*$ ]] || { echo "fuzz: JOBS must be a positive integer, not '$jobs'" >&2; exit 2; }
 cmake --preset fuzz >/dev/null
 cmake --build --preset fuzz --target fuzzers >/dev/null   # the fuzz targets only
 work=build/fuzz/run
@@ -35,7 +37,7 @@ done
 for target in "${targets[@]}"; do
   if wait "${pid_of[$target]}"; then
     echo "fuzz: $target clean"
-    grep -E "stat::number_of_executed_units|stat::new_units_added" "build/fuzz/$target.log" | sed 's/^/  /'
+    { grep -E "stat::number_of_executed_units|stat::new_units_added" "build/fuzz/$target.log" || true; } | sed 's/^/  /'
   else
     tail -30 "build/fuzz/$target.log"
     echo "fuzz: $target FAILED (crash input in build/fuzz/crashes/)"

@@ -1,5 +1,5 @@
 // Scans placed at the frame of their own time: mapper::FrameHistory (record, skip,
-// interpolate, clock going back, capacity) and base::MapFrames with the mapper on a robot
+// interpolate, clock going back, restarts, capacity) and base::MapFrames with the mapper on a robot
 // whose local frame drifts while it drives along a wall. Redrawing every stored scan with
 // the latest frame (the rule before) bends that wall; the frames of their times keep it.
 #include "basestation/map_frames.hpp"
@@ -71,6 +71,28 @@ TEST(FrameHistory, SameTimeReplacesAnOlderTimeDropsTheLaterFramesAndNonFiniteIsR
   EXPECT_FALSE(h.record(9 * kS, {0, 0, std::numeric_limits<double>::infinity()}));
   EXPECT_EQ(h.size(), 1u);
   EXPECT_THROW(FrameHistory(0), std::invalid_argument);
+}
+
+TEST(FrameHistory, ARestartBeginsANewLocalFrameThatIsNeverBlendedWithTheOld) {
+  // Boot 1: frames at 0 s and 10 s. The robot restarts; boot 2's local frame begins at
+  // 12 s (its first odometry) and the fusion's first frame of it is at 13 s.
+  FrameHistory h(16);
+  ASSERT_TRUE(h.record(0, {0, 0, 0}, 1, 0));
+  ASSERT_TRUE(h.record(10 * kS, {1, 0, 0}, 1, 0));
+  ASSERT_TRUE(h.record(13 * kS, {5, 5, 1}, 2, 12 * kS));
+  ASSERT_TRUE(h.record(20 * kS, {6, 5, 1}, 2, 12 * kS));
+  expect_pose(h.at(5 * kS), {0.5, 0, 0});
+  expect_pose(h.at(11 * kS), {1, 0, 0});     // boot 1 after its last frame: held, not blended
+  expect_pose(h.at(12 * kS), {5, 5, 1});     // boot 2 from its start
+  expect_pose(h.at(16 * kS + kS / 2), {5.5, 5, 1});
+  // A restart whose first frame equals the old one is still a new segment.
+  ASSERT_TRUE(h.record(30 * kS, {6, 5, 1}, 3, 29 * kS));
+  EXPECT_EQ(h.size(), 5u);
+  expect_pose(h.at(25 * kS), {6, 5, 1});
+  // A new segment at the old one's last instant replaces that frame.
+  ASSERT_TRUE(h.record(30 * kS, {7, 7, 0}, 4, 30 * kS));
+  EXPECT_EQ(h.size(), 5u);
+  expect_pose(h.at(30 * kS), {7, 7, 0});
 }
 
 TEST(FrameHistory, AFullHistoryDropsItsOldestFramesAndCountsThem) {
@@ -209,8 +231,12 @@ TEST(MapFrames, TheFusionsFrameIsRecordedAtItsEstimatesTimeAndOnlyLocalisedRobot
   o.delta_cov = {1e-6, 0, 0, 0, 1e-6, 0, 0, 0, 1e-6};
   o.boot_epoch = 3;
   ASSERT_EQ(fusion.on_odometry(o), Fusion::Result::kApplied);
-  EXPECT_EQ(fusion.estimate_time(1), 7 * kS);
-  EXPECT_EQ(fusion.estimate_time(2), 0);
+  Fusion::EstimateClock when;
+  ASSERT_TRUE(fusion.estimate_clock(1, &when));
+  EXPECT_EQ(when.t, 7 * kS);
+  EXPECT_EQ(when.boot_epoch, 3u);
+  EXPECT_EQ(when.boot_t0, 7 * kS);
+  EXPECT_FALSE(fusion.estimate_clock(2, &when));
   s.stamp = 7 * kS;
   s.pose = {};
   ASSERT_TRUE(frames.place(map, s, fusion));
@@ -221,6 +247,84 @@ TEST(MapFrames, TheFusionsFrameIsRecordedAtItsEstimatesTimeAndOnlyLocalisedRobot
   EXPECT_NEAR(at.theta, 0.3, 1e-9);
   s.robot_id = 2;
   EXPECT_FALSE(frames.place(map, s, fusion));
+}
+
+// A robot restarts (new boot epoch, new local frame) while the base keeps its map. The
+// restart may reach the fusion first through a features message, before the new boot's
+// first odometry: the fusion then has no time for the new frame. The scans of the old
+// boot stay where they were drawn, and the new boot's are drawn in the new frame.
+TEST(MapFrames, ARobotRestartLeavesTheOldBootsScansWhereTheyWereDrawn) {
+  FusionConfig fc;
+  RobotPrior p;
+  p.known = true;
+  p.pose = {1.0, 2.0, 0.0};
+  p.sigma = Vec3(0.05, 0.05, 0.01);
+  fc.robots[1] = p;
+  Fusion fusion(fc);
+  mapper::Mapper map(corridor_config());
+  MapFrames frames;
+  msg::OdometryIncrement o;
+  o.robot_id = 1;
+  o.delta_cov = {1e-6, 0, 0, 0, 1e-6, 0, 0, 0, 1e-6};
+  o.boot_epoch = 3;
+  // Boot 3: the robot drives 4 m along its local x in 4 s.
+  for (int k = 0; k <= 4; ++k) {
+    o.seq = static_cast<std::uint32_t>(k + 1);
+    o.t0 = (k - 1) * kS;
+    o.t1 = k * kS;
+    o.delta = k == 0 ? Pose2{} : Pose2{1.0, 0, 0};
+    o.local_pose = {static_cast<double>(k), 0, 0};
+    ASSERT_EQ(fusion.on_odometry(o), Fusion::Result::kApplied);
+    frames.record(fusion);
+  }
+  msg::LaserScan s = DriftingRobot::scan(0);
+  s.stamp = 2 * kS;
+  s.pose = {2.0, 0, 0};
+  ASSERT_TRUE(frames.place(map, s, fusion));
+  const Pose2 drawn = map.body_trajectory(1).at(0).pose;
+  EXPECT_NEAR(drawn.x, 3.0, 1e-9);
+  EXPECT_NEAR(drawn.y, 2.0, 1e-9);
+
+  // Boot 4 announces itself with a features message (no odometry yet).
+  msg::FeatureObservations f;
+  f.robot_id = 1;
+  f.seq = 1;
+  f.stamp = 6 * kS;
+  f.boot_epoch = 4;
+  (void)fusion.on_features(f);
+  Fusion::EstimateClock when;
+  ASSERT_FALSE(fusion.estimate_clock(1, &when));
+  frames.record(fusion);  // nothing to record: the old frame has no new time
+  msg::LaserScan early = s;
+  early.stamp = 6 * kS;
+  early.pose = {};
+  EXPECT_FALSE(frames.place(map, early, fusion)) << "a scan of the new boot before its first odometry has no frame";
+  frames.rerender(map);
+  ASSERT_EQ(map.body_trajectory(1).size(), 1u);
+  EXPECT_NEAR(map.body_trajectory(1)[0].pose.x, 3.0, 1e-9) << "the old boot's scan moved";
+
+  // Boot 4's first odometry re-anchors the local frame at the robot's place (5, 2).
+  o.boot_epoch = 4;
+  o.seq = 1;
+  o.t0 = 7 * kS;
+  o.t1 = 8 * kS;
+  o.delta = {};
+  o.local_pose = {};
+  ASSERT_EQ(fusion.on_odometry(o), Fusion::Result::kApplied);
+  ASSERT_TRUE(fusion.estimate_clock(1, &when));
+  EXPECT_EQ(when.boot_epoch, 4u);
+  EXPECT_EQ(when.boot_t0, 8 * kS);
+  frames.record(fusion);
+  msg::LaserScan late = s;
+  late.stamp = 9 * kS;
+  late.pose = {};
+  ASSERT_TRUE(frames.place(map, late, fusion));
+  frames.rerender(map);
+  const std::vector<mapper::TimedPose> t = map.body_trajectory(1);
+  ASSERT_EQ(t.size(), 2u);
+  EXPECT_NEAR(t[0].pose.x, 3.0, 1e-9) << "the old boot's scan was redrawn in the new frame";
+  EXPECT_NEAR(t[1].pose.x, 5.0, 0.05);
+  EXPECT_NEAR(t[1].pose.y, 2.0, 0.05);
 }
 
 }  // namespace

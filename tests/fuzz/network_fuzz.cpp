@@ -4,9 +4,9 @@
 // The input is a sequence of samples: one op byte, then the raw bytes of the IDL struct
 // (zero-filled when the input runs out). Each goes through the one conversion
 // (common/dds/convert) and then, as the base's node and the robot's bridge would, into
-// the base's fusion (odometry, features), the base's central mapper (laser scans, placed by
-// the fusion's frame estimate as basestation/grid_map_node does, or by a fixed frame when
-// the robot is not localised) or the robot's side (corrections, tasks, the global map's
+// the base's fusion (odometry, features), the base's central mapper (laser scans, placed at
+// the fusion's frame of their time through base::MapFrames as basestation/grid_map_node
+// does, or by a fixed frame when the robot has no place) or the robot's side (corrections, tasks, the global map's
 // tiles into a small GlobalMap, classified after each) or the exploration executive (bids,
 // op 7 with bit 5 set; operators' visit requests, op 7 with bit 6 set, through the
 // executive's edge checks). At the
@@ -25,6 +25,7 @@
 #include "basestation/explore/task_allocator.hpp"
 #include "basestation/explore/visit_check.hpp"
 #include "basestation/fusion.hpp"
+#include "basestation/map_frames.hpp"
 #include "basestation/mapper/mapper.hpp"
 #include "common/dds/convert.hpp"
 #include "firmware/robot_bridge.hpp"
@@ -68,6 +69,7 @@ mapper::MapperConfig small_grid() {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   base::Fusion fusion(fleet());
   mapper::Mapper map(small_grid());
+  base::MapFrames frames;
   firmware::GlobalMapConfig robot_map_cfg;
   robot_map_cfg.max_cells = 6 * 64 * 64;  // small: the out-of-room paths are reached
   firmware::GlobalMap robot_map(robot_map_cfg);
@@ -129,9 +131,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         p = fill(&d, p, end);
         msg::LaserScan m;
         if (!dds::from_dds(d, &m)) break;
-        msg::PoseCorrection c;
-        if (!fusion.correction(m.robot_id, m.stamp, &c)) c.local_to_global = {0.5, -0.25, 0.1};
-        (void)map.add_scan_local(m, c.local_to_global);
+        if (!frames.place(map, m, fusion)) (void)map.add_scan_local(m, {0.5, -0.25, 0.1});
         break;
       }
       case 5: {
@@ -181,7 +181,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         (void)fusion.correction(robot, 0, &c);
         std::vector<msg::Landmark> landmarks;
         fusion.landmarks(&landmarks);
-        if (fusion.correction(robot, 0, &c)) (void)map.on_frame_corrected(robot, c.local_to_global);
+        frames.record(fusion);
+        frames.rerender(map);
         (void)map.take_changed();
         break;
       }
