@@ -212,14 +212,19 @@ TEST(MapFrames, AScanOlderThanEveryFrameUsesTheFirstAndAnUnknownRobotHasNoPlace)
   EXPECT_NEAR(map.body_trajectory(1)[0].pose.y, 1.0, 1e-12);
 }
 
-TEST(MapFrames, TheFusionsFrameIsRecordedAtItsEstimatesTimeAndOnlyLocalisedRobotsArePlaced) {
+// A fusion that knows robot 1 starts at `start` (the map frame).
+FusionConfig robot_1_at(const Pose2& start) {
   FusionConfig fc;
   RobotPrior p;
   p.known = true;
-  p.pose = {1.0, 2.0, 0.3};
+  p.pose = start;
   p.sigma = Vec3(0.05, 0.05, 0.01);
   fc.robots[1] = p;
-  Fusion fusion(fc);
+  return fc;
+}
+
+TEST(MapFrames, TheFusionsFrameIsRecordedAtItsEstimatesTimeAndOnlyLocalisedRobotsArePlaced) {
+  Fusion fusion(robot_1_at({1.0, 2.0, 0.3}));
   mapper::Mapper map(corridor_config());
   MapFrames frames;
   msg::LaserScan s = DriftingRobot::scan(0);
@@ -254,13 +259,7 @@ TEST(MapFrames, TheFusionsFrameIsRecordedAtItsEstimatesTimeAndOnlyLocalisedRobot
 // first odometry: the fusion then has no time for the new frame. The scans of the old
 // boot stay where they were drawn, and the new boot's are drawn in the new frame.
 TEST(MapFrames, ARobotRestartLeavesTheOldBootsScansWhereTheyWereDrawn) {
-  FusionConfig fc;
-  RobotPrior p;
-  p.known = true;
-  p.pose = {1.0, 2.0, 0.0};
-  p.sigma = Vec3(0.05, 0.05, 0.01);
-  fc.robots[1] = p;
-  Fusion fusion(fc);
+  Fusion fusion(robot_1_at({1.0, 2.0, 0.0}));
   mapper::Mapper map(corridor_config());
   MapFrames frames;
   msg::OdometryIncrement o;
