@@ -3,16 +3,17 @@
 namespace cairn::base {
 
 void MapFrames::record(const Fusion& fusion) {
-  for (std::uint16_t id : fusion.robots()) record(fusion, id);
+  for (std::uint16_t id : fusion.robots()) (void)record(fusion, id);
 }
 
-void MapFrames::record(const Fusion& fusion, std::uint16_t robot) {
+bool MapFrames::record(const Fusion& fusion, std::uint16_t robot) {
   msg::PoseCorrection c;
   Fusion::EstimateClock when;
   // A robot that restarted and has sent no odometry yet: its correction is still of the
   // old local frame, and there is no new time to put it at.
-  if (!fusion.correction(robot, 0, &c) || !fusion.estimate_clock(robot, &when)) return;
-  (void)record(robot, when.t, c.local_to_global, when.boot_epoch, when.boot_t0);
+  if (!fusion.correction(robot, 0, &c) || !fusion.estimate_clock(robot, &when)) return false;
+  (void)record(robot, when.t, c.local_to_global, when.boot_epoch, when.boot_t0);  // a non-finite frame is not kept
+  return true;
 }
 
 bool MapFrames::record(std::uint16_t robot, Nanos t, const Pose2& local_to_global, std::uint32_t boot_epoch, Nanos boot_t0) {
@@ -22,10 +23,7 @@ bool MapFrames::record(std::uint16_t robot, Nanos t, const Pose2& local_to_globa
 bool MapFrames::place(mapper::Mapper& map, const msg::LaserScan& scan, const Fusion& fusion) {
   // Not localised, or restarted without odometry yet (the scan's local frame may be the
   // new boot's, which the fusion has not anchored): no place for it.
-  Fusion::EstimateClock when;
-  if (!fusion.localized(scan.robot_id) || !fusion.estimate_clock(scan.robot_id, &when)) return false;
-  record(fusion, scan.robot_id);
-  return place(map, scan);
+  return record(fusion, scan.robot_id) && place(map, scan);
 }
 
 bool MapFrames::place(mapper::Mapper& map, const msg::LaserScan& scan) const {

@@ -25,7 +25,9 @@ class MapFrames {
   /// Records the frame of every robot the fusion has localised, at its estimate's time
   /// (Fusion::estimate_clock), as of the robot's current boot.
   void record(const Fusion& fusion);
-  void record(const Fusion& fusion, std::uint16_t robot);
+  /// One robot's; false when the fusion has no frame of its current boot (not localised,
+  /// or restarted without odometry since).
+  bool record(const Fusion& fusion, std::uint16_t robot);
   /// Records one robot's frame (local→global) at robot time t, of the local frame of boot
   /// `boot_epoch` that began at `boot_t0`; false if not finite.
   bool record(std::uint16_t robot, Nanos t, const Pose2& local_to_global, std::uint32_t boot_epoch = 0, Nanos boot_t0 = 0);
