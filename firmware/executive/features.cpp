@@ -3,9 +3,19 @@
 #include <algorithm>
 #include <cmath>
 
+#include "firmware/executive/marker_decoder.hpp"
+
 namespace cairn::firmware {
 
 namespace {
+
+void add(const ScanFeature& f, ScanFeatures* out) {
+  if (out->count == out->items.size()) {
+    ++out->dropped;
+    return;
+  }
+  out->items[out->count++] = f;
+}
 
 void emit(const lms::LmsScan& scan, std::size_t first, std::size_t last, const Pose2& mount, const FeatureConfig& cfg,
           ScanFeatures* out) {
@@ -19,7 +29,12 @@ void emit(const lms::LmsScan& scan, std::size_t first, std::size_t last, const P
   if (width > cfg.max_width_m || r > cfg.max_range_m) return;
   ScanFeature f;
   f.robot = width >= cfg.robot_marker_min_width_m;
+  // Wider than a pole by more than two beams' spacing, narrower than a marker: a stripe of
+  // a body whose bare neighbours are hidden (another robot behind it): not a feature.
+  if (!f.robot && width > 2 * cfg.pole_radius_m + 2 * r * scan.angle_increment) return;
   f.width = width;
+  f.first_beam = static_cast<std::uint16_t>(first);
+  f.last_beam = static_cast<std::uint16_t>(last);
   const double bearing_s = 0.5 * (a0 + a1);
   double range_s = r;
   if (!f.robot) {
@@ -44,11 +59,105 @@ void emit(const lms::LmsScan& scan, std::size_t first, std::size_t last, const P
   const double n = static_cast<double>(last - first + 1);
   f.covariance << cfg.sigma_range_m * cfg.sigma_range_m, 0, 0,
       cfg.sigma_bearing_rad * cfg.sigma_bearing_rad + scan.angle_increment * scan.angle_increment / (12.0 * n);
-  if (out->count == out->items.size()) {
-    ++out->dropped;
-    return;
+  add(f, out);
+}
+
+// Cluster [first, last] if it is one whole taped object: a pole, or (wide) a marker too far
+// or too cut to fit a body. A run with bare beams of the same surface beside it is a
+// stripe of a larger taped body (another robot seen in part), and a cluster with a nearer
+// return or the field of view's end beside it may be hidden in part: both are left out. (So would be a pole closer
+// than the range step to a wall behind it; docs/markers.md.)
+void emit_runs(const lms::LmsScan& scan, std::size_t first, std::size_t last, const Pose2& mount, const FeatureConfig& cfg,
+               ScanFeatures* out) {
+  std::size_t start = 0;
+  bool in_run = false;
+  // Something nearer right beside the cluster, or the end of the field of view, may hide
+  // part of it: then its size is not known, and a sliver of a body can pass for a pole.
+  const bool hidden = first == 0 || last + 1 == scan.count ||
+                      (scan.range_mm[first - 1] != 0 && scan.range_mm[first - 1] < scan.range_mm[first]) ||
+                      (scan.range_mm[last + 1] != 0 && scan.range_mm[last + 1] < scan.range_mm[last]);
+  auto close = [&](std::size_t end) {
+    if (start == first && end == last && !hidden) emit(scan, start, end, mount, cfg, out);
+    in_run = false;
+  };
+  for (std::size_t i = first; i <= last; ++i) {
+    const bool flagged = scan.flags[i] != 0;
+    if (in_run && !flagged) close(i - 1);
+    if (flagged && !in_run) {
+      start = i;
+      in_run = true;
+    }
   }
-  out->items[out->count++] = f;
+  if (in_run) close(last);
+}
+
+Vec2 beam_point(const lms::LmsScan& scan, std::size_t i) {
+  const double a = scan.angle_min + scan.angle_increment * static_cast<double>(i);
+  const double r = scan.range_mm[i] * 1e-3;
+  return {r * std::cos(a), r * std::sin(a)};
+}
+
+// Cluster [first, last] as a robot's body: a circle of the fleet's body radius, convex
+// towards the laser, fitted to its points (Gauss-Newton on the centre, a fixed number of
+// steps). If it is one, `*f` is the robot at the body's centre with the code its tape says.
+bool fit_body(const lms::LmsScan& scan, std::size_t first, std::size_t last, const Pose2& mount, const FeatureConfig& cfg,
+              ScanFeature* f) {
+  const std::size_t n = last - first + 1;
+  if (n < 4) return false;
+  const Vec2 a = beam_point(scan, first), b = beam_point(scan, last);
+  const double chord = (b - a).norm(), R = cfg.robot_radius_m;
+  if (chord < cfg.robot_marker_min_width_m || chord > 2 * R + cfg.max_range_step_m) return false;
+  Vec2 mean = Vec2::Zero();
+  for (std::size_t i = first; i <= last; ++i) mean += beam_point(scan, i);
+  mean /= static_cast<double>(n);
+  Vec2 c = mean + R * mean.normalized();
+  for (int step = 0; step < 8; ++step) {
+    Mat2 jtj = Mat2::Zero();
+    Vec2 jtr = Vec2::Zero();
+    for (std::size_t i = first; i <= last; ++i) {
+      const Vec2 d = beam_point(scan, i) - c;
+      const double len = std::max(d.norm(), 1e-9);
+      const Vec2 jac = -d / len;
+      jtj += jac * jac.transpose();
+      jtr += jac * (len - R);
+    }
+    const double det = jtj(0, 0) * jtj(1, 1) - jtj(0, 1) * jtj(1, 0);
+    if (std::abs(det) < 1e-12) return false;
+    c -= Vec2(jtj(1, 1) * jtr.x() - jtj(0, 1) * jtr.y(), jtj(0, 0) * jtr.y() - jtj(1, 0) * jtr.x()) / det;
+  }
+  double sq = 0;
+  for (std::size_t i = first; i <= last; ++i) {
+    const double e = (beam_point(scan, i) - c).norm() - R;
+    sq += e * e;
+  }
+  // Not a body: points off the circle, or the circle behind the laser's side of them
+  // (the inside of a curved wall).
+  if (std::sqrt(sq / static_cast<double>(n)) > cfg.body_fit_rms_m || c.norm() <= mean.norm()) return false;
+
+  // Each beam placed round the body: where its line meets the circle (measured ranges are
+  // noisiest at grazing beams), as an angle round the centre from the point facing the laser.
+  std::array<BodyBeam, lms::kMaxBeams> beams;
+  const double facing = std::atan2(-c.y(), -c.x());
+  for (std::size_t i = first; i <= last; ++i) {
+    const double ang = scan.angle_min + scan.angle_increment * static_cast<double>(i);
+    const Vec2 u(std::cos(ang), std::sin(ang));
+    const double offset = u.x() * c.y() - u.y() * c.x();  // the centre's side distance from the beam's line
+    const Vec2 hit = (u.dot(c) - std::sqrt(std::max(0.0, R * R - offset * offset))) * u;
+    beams[i - first] = {normalize_angle(std::atan2(hit.y() - c.y(), hit.x() - c.x()) - facing), scan.flags[i] != 0};
+  }
+  // Too few beams to place them round the body with confidence: no code read.
+  const int code = n >= cfg.marker_min_beams ? decode_marker(beams.data(), n, cfg.marker_margin_rad) : kMarkerUnread;
+  f->robot = true;
+  f->marker_id = code > 0 ? code : kMarkerUnread;
+  f->width = chord;
+  f->first_beam = static_cast<std::uint16_t>(first);
+  f->last_beam = static_cast<std::uint16_t>(last);
+  // Sensor frame -> robot frame.
+  const RangeBearing rb = observe_point(Pose2{}, transform_point(mount, c));
+  f->range = rb.range;
+  f->bearing = rb.bearing;
+  f->covariance << cfg.sigma_range_m * cfg.sigma_range_m, 0, 0, cfg.sigma_bearing_rad * cfg.sigma_bearing_rad;
+  return true;
 }
 
 }  // namespace
@@ -56,23 +165,53 @@ void emit(const lms::LmsScan& scan, std::size_t first, std::size_t last, const P
 void extract_features(const lms::LmsScan& scan, const Pose2& mount, const FeatureConfig& cfg, ScanFeatures* out) {
   out->count = 0;
   out->dropped = 0;
-  std::size_t start = 0;
-  bool in_run = false;
-  for (std::size_t i = 0; i < scan.count; ++i) {
-    const bool reflective = scan.flags[i] != 0 && scan.range_mm[i] != 0;
-    if (in_run) {
-      const bool continuous = reflective && std::abs(scan.range_mm[i] - scan.range_mm[i - 1]) * 1e-3 <= cfg.max_range_step_m;
-      if (!continuous) {
-        emit(scan, start, i - 1, mount, cfg, out);
-        in_run = false;
+  // Clusters: neighbouring beams with a return and continuous range (one surface).
+  auto cluster_end = [&](std::size_t i, bool* flagged) {
+    std::size_t j = i;
+    *flagged = scan.flags[i] != 0;
+    while (j + 1 < scan.count && scan.range_mm[j + 1] != 0 &&
+           std::abs(scan.range_mm[j + 1] - scan.range_mm[j]) * 1e-3 <= cfg.max_range_step_m) {
+      ++j;
+      *flagged = *flagged || scan.flags[j] != 0;
+    }
+    return j;
+  };
+  auto has_return = [&](std::size_t i) { return i < scan.count && scan.range_mm[i] != 0; };
+  std::size_t i = 0;
+  while (i < scan.count) {
+    if (scan.range_mm[i] == 0) {
+      ++i;
+      continue;
+    }
+    bool flagged = false, more = false;
+    const std::size_t j = cluster_end(i, &flagged);
+    // A beam grazing a body's edge can land further than the range step from its
+    // neighbour: a body is tried with up to two such beams on either side, and they are
+    // its own whether or not the fit takes them (never a pole of their own).
+    std::size_t core_lo = i, core_hi = j, hi = j;
+    bool core_flagged = flagged;
+    if (j - i < 2 && has_return(j + 1)) {
+      core_lo = j + 1;
+      core_hi = hi = cluster_end(j + 1, &core_flagged);
+    }
+    bool any_flagged = flagged || core_flagged;
+    if (has_return(hi + 1)) {
+      const std::size_t k = cluster_end(hi + 1, &more);
+      if (k - hi <= 2) {
+        hi = k;
+        any_flagged = any_flagged || more;
       }
     }
-    if (reflective && !in_run) {
-      start = i;
-      in_run = true;
+    ScanFeature body;
+    if (any_flagged && (fit_body(scan, i, hi, mount, cfg, &body) ||
+                        (core_flagged && fit_body(scan, core_lo, core_hi, mount, cfg, &body)))) {
+      add(body, out);
+      i = hi + 1;
+      continue;
     }
+    if (flagged) emit_runs(scan, i, j, mount, cfg, out);
+    i = j + 1;
   }
-  if (in_run) emit(scan, start, scan.count - 1, mount, cfg, out);
 }
 
 }  // namespace cairn::firmware

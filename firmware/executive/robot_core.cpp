@@ -101,12 +101,23 @@ OdometryStep RobotCore::odometry_pending() const {
 void RobotCore::on_scan(const lms::LmsScan& scan, Nanos now, RobotOutputs& out) {
   last_scan_ = now;
   ++scans_seen_;
+  // Features first: the beams on other robots' bodies are left out of the match (they
+  // move; matched, they drag this robot's local frame along with them).
+  extract_features(scan, cfg_.laser_mount, cfg_.features, &features_);
+  std::size_t next_robot = 0;  // features come in beam order
+  auto on_robot = [&](std::size_t beam) {
+    for (; next_robot < features_.count; ++next_robot) {
+      const ScanFeature& f = features_.items[next_robot];
+      if (f.robot && beam <= f.last_beam) return beam >= f.first_beam;
+    }
+    return false;
+  };
   // Points in the robot frame, the laser's mount applied.
   std::size_t n = 0;
   const double min_r = cfg_.localmap.min_range_m, max_r = cfg_.localmap.max_range_m;
   for (std::size_t i = 0; i < scan.count; ++i) {
     const double r = scan.range_mm[i] * 1e-3;
-    if (scan.range_mm[i] == 0 || r < min_r || r > max_r) continue;
+    if (scan.range_mm[i] == 0 || r < min_r || r > max_r || on_robot(i)) continue;
     const double a = scan.angle_min + scan.angle_increment * static_cast<double>(i);
     points_[n++] = transform_point(cfg_.laser_mount, Vec2(r * std::cos(a), r * std::sin(a)));
   }
@@ -156,7 +167,6 @@ void RobotCore::on_scan(const lms::LmsScan& scan, Nanos now, RobotOutputs& out) 
   const Nanos early = std::min<Nanos>(cfg_.feature_period / 4, 2 * kNanosPerMilli);
   const bool feature_due = !features_sent_ || scan.stamp - last_feature_stamp_ >= cfg_.feature_period - early;
   if (!feature_due) return;
-  extract_features(scan, cfg_.laser_mount, cfg_.features, &features_);
   if (features_.count > 0) {
     last_feature_stamp_ = scan.stamp;
     features_sent_ = true;
@@ -172,7 +182,7 @@ void RobotCore::on_scan(const lms::LmsScan& scan, Nanos now, RobotOutputs& out) 
       const ScanFeature& s = features_.items[i];
       msg::Feature& o = f.features[i];
       o.kind = s.robot ? msg::FeatureKind::kRobot : msg::FeatureKind::kLandmark;
-      o.marker_id = -1;
+      o.marker_id = s.marker_id;
       o.range = s.range;
       o.bearing = s.bearing;
       o.cov = {s.covariance(0, 0), s.covariance(0, 1), s.covariance(0, 1), s.covariance(1, 1)};

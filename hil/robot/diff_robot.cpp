@@ -17,7 +17,7 @@ void DiffRobot::step(double left_motor, double right_motor, double dt) {
   }
   odometer_ += std::abs(v * dt);
   pose_ = next;
-  world_->set_robot(id_, pose_.translation(), radius_);
+  world_->set_robot(id_, pose_, radius_);
 }
 
 }  // namespace cairn::hil

@@ -13,7 +13,7 @@ class DiffRobot {
  public:
   DiffRobot(int id, const canopen::DiffDriveGeometry& g, const Pose2& start, double radius, World* world)
       : id_(id), g_(g), pose_(start), radius_(radius), world_(world) {
-    world_->set_robot(id_, pose_.translation(), radius_);
+    world_->set_robot(id_, pose_, radius_);
   }
   /// Advances by dt with the motors' velocities (drive units; the right motor mirrored as configured).
   void step(double left_motor, double right_motor, double dt);

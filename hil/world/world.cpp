@@ -1,5 +1,7 @@
 #include "hil/world/world.hpp"
 
+#include "common/robot_marker.hpp"
+
 #include <cmath>
 #include <fstream>
 #include <random>
@@ -155,20 +157,27 @@ RayHit World::cast(const Vec2& origin, double angle, double max_range, int ignor
   for (const Circle& c : circles_) {
     if (c.robot && c.robot == ignore_robot) continue;
     const double t = ray_circle(origin, d, c.c, c.r);
-    if (t >= 0 && t < best.range) best = {t, true, c.reflective, c.robot};
+    if (t < 0 || t >= best.range) continue;
+    bool reflective = c.reflective;
+    if (c.robot) {  // the tape at the point hit, in the robot's body frame
+      const Vec2 on_body = origin + t * d - c.c;
+      reflective = marker::taped_at(c.robot, std::atan2(on_body.y(), on_body.x()) - c.heading);
+    }
+    best = {t, true, reflective, c.robot};
   }
   return best;
 }
 
-void World::set_robot(int id, const Vec2& position, double radius) {
+void World::set_robot(int id, const Pose2& pose, double radius) {
   for (Circle& c : circles_) {
     if (c.robot == id) {
-      c.c = position;
+      c.c = pose.translation();
       c.r = radius;
+      c.heading = pose.theta;
       return;
     }
   }
-  circles_.push_back({position, radius, true, id});
+  circles_.push_back({pose.translation(), radius, true, id, pose.theta});
 }
 
 void World::remove_robot(int id) {

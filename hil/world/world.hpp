@@ -32,7 +32,9 @@ struct Circle {
   Vec2 c;
   double r = 0;
   bool reflective = false;  // retroreflective tape: the LMS flags the return
-  int robot = 0;            // > 0: this circle is robot `robot` (moves)
+  int robot = 0;            // > 0: this circle is robot `robot` (moves), taped with its
+                            // marker code (common/robot_marker.hpp)
+  double heading = 0;       // a robot's heading: where its marker code starts
 };
 
 struct RayHit {
@@ -51,8 +53,9 @@ class World {
   /// Exact first intersection of the ray from `origin` in direction `angle` (rad).
   RayHit cast(const Vec2& origin, double angle, double max_range, int ignore_robot = 0) const;
 
-  /// Places (or moves) robot `id`, a circle of radius `r` with a reflective marker.
-  void set_robot(int id, const Vec2& position, double radius);
+  /// Places (or moves) robot `id`, a circle of radius `r` at `pose` wearing its coded
+  /// marker (turned with the pose's heading).
+  void set_robot(int id, const Pose2& pose, double radius);
   void remove_robot(int id);
   /// True if a disc at `p` of radius `r` touches any obstacle (for the simulated robot).
   bool collides(const Vec2& p, double r, int ignore_robot = 0) const;

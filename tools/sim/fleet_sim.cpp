@@ -158,7 +158,7 @@ void FleetSim::deliver(Nanos now) {
 void FleetSim::share_world() {
   for (std::size_t i = 0; i < robots_.size(); ++i) {
     for (std::size_t j = 0; j < robots_.size(); ++j) {
-      if (i != j) worlds_[i]->set_robot(robots_[j]->id(), robots_[j]->truth().translation(), robots_[j]->body_radius());
+      if (i != j) worlds_[i]->set_robot(robots_[j]->id(), robots_[j]->truth(), robots_[j]->body_radius());
     }
   }
 }
