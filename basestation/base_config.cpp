@@ -24,6 +24,7 @@ BaseConfig from_document(const ConfigDocument& doc) {
     c.history_depth = static_cast<int>(f->integer_or("history_depth", 512, {1, 100000}));
     c.fusion.iterations = static_cast<int>(f->integer_or("update_iterations", 1, {1, 50}));
     c.fusion.candidate_range = f->number_or("candidate_range_m", 15.0, {0.5, 1000.0});
+    c.fusion.robot_observations = f->boolean_or("robot_observations", true);
     FusionConfig& u = c.fusion;
     u.max_landmarks = static_cast<std::size_t>(f->integer_or("max_landmarks", 2000, {1, 100000}));
     u.landmark_confirm_count = static_cast<std::uint32_t>(f->integer_or("landmark_confirm_count", 3, {1, 1000}));

@@ -277,7 +277,12 @@ void Fusion::apply_features(const msg::FeatureObservations& m, Track& t) {
     const msg::Feature& f = m.features[i];
     const RangeBearing z{f.range, normalize_angle(f.bearing)};
     if (f.kind == msg::FeatureKind::kRobot) {
-      if (f.marker_id == -1) continue;  // a marker not decoded: nothing to pair it with
+      ++counters_.robot_sightings;
+      if (f.marker_id == -1) {  // a marker not read: nothing to pair it with
+        ++counters_.robot_sightings_unidentified;
+        continue;
+      }
+      if (!config_.robot_observations) continue;
       // check() bounded it to [1, 65535] and not the observer: the same id for lookup and measurement.
       const auto other_id = static_cast<std::uint16_t>(f.marker_id);
       const auto other = tracks_.find(other_id);
@@ -368,6 +373,7 @@ void Fusion::apply_features(const msg::FeatureObservations& m, Track& t) {
     const ccml::UpdateResult u = filter_.update(gated, config_.iterations);
     if (u.applied) {
       counters_.observations_used += gated.size();
+      for (const Measurement& meas : gated) counters_.robot_observations_used += meas.target_kind == Measurement::Target::kRobot;
     } else if (u.refused) {
       counters_.rejected.count(Reject::kFilterRefused);
     }

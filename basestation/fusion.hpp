@@ -53,6 +53,7 @@ struct FusionConfig {
   std::size_t max_pending = 64;                // feature messages waiting for their odometry, per robot
   std::size_t odometry_window = 1024;          // increments remembered per robot to re-express late features
   double candidate_range = 15.0;               // JCBB candidates within this distance (m)
+  bool robot_observations = true;              // fuse robots' sightings of each other (off: each robot alone)
   /// An unpaired observation starts a new feature only if no existing feature explains it
   /// even at this confidence (far stricter than the pairing gate: duplicates are costly).
   double new_feature_confidence = 0.999999;
@@ -69,6 +70,9 @@ struct FusionCounters {
   std::uint64_t feature_messages_applied = 0, feature_duplicates = 0, feature_late = 0, feature_stale = 0, pending_overflow = 0;
   std::uint64_t observations_used = 0, observations_new_features = 0, landmarks_pruned = 0;
   std::uint64_t robots_joined = 0, robots_localized = 0, robots_restarted = 0;
+  // Robots seen by robots: all sightings, those whose marker was not read (no identity:
+  // not fused), and those that entered an applied update.
+  std::uint64_t robot_sightings = 0, robot_sightings_unidentified = 0, robot_observations_used = 0;
   RejectCounters rejected;  // by reason: messages and observations not applied
 };
 

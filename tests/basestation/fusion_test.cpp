@@ -59,6 +59,47 @@ TEST(Fusion, ThreeRobotsStayLocalisedAndMapThePoles) {
   EXPECT_EQ(map.size(), f.filter().feature_count());
 }
 
+// Robots' sightings of each other (docs/markers.md): those with an id enter the update and
+// are counted; a sighting whose marker was not read (id -1) is counted and not fused; with
+// robot_observations off none is fused and the estimate is that of landmarks alone.
+TEST(Fusion, RobotSightingsWithAnIdAreFusedAndCounted) {
+  FleetScenario s = fleet_stream::make_fleet_scenario(3, 300);
+  std::uint64_t with_id = 0, unread = 0;
+  std::size_t k = 0;
+  for (auto& m : s.messages) {
+    auto* f = std::get_if<msg::FeatureObservations>(&m);
+    if (!f) continue;
+    for (std::uint8_t i = 0; i < f->n_features; ++i) {
+      if (f->features[i].kind != msg::FeatureKind::kRobot) continue;
+      if (++k % 4 == 0) {  // every fourth: its code not read
+        f->features[i].marker_id = -1;
+        ++unread;
+      } else {
+        ++with_id;
+      }
+    }
+  }
+  ASSERT_GT(with_id, 100u);
+  Fusion on(config_for(s));
+  FusionConfig c = config_for(s);
+  c.robot_observations = false;
+  Fusion off(c);
+  for (const auto& m : s.messages) {
+    feed(&on, m);
+    feed(&off, m);
+  }
+  EXPECT_EQ(on.counters().robot_sightings, with_id + unread);
+  EXPECT_EQ(on.counters().robot_sightings_unidentified, unread);
+  // All but a few (the gate, the first messages before both robots are localised) fused.
+  EXPECT_GT(on.counters().robot_observations_used, with_id * 9 / 10);
+  EXPECT_LE(on.counters().robot_observations_used, with_id);
+  EXPECT_EQ(off.counters().robot_sightings, with_id + unread);
+  EXPECT_EQ(off.counters().robot_observations_used, 0u);
+  EXPECT_EQ(on.counters().observations_used - on.counters().robot_observations_used, off.counters().observations_used)
+      << "the landmarks' observations are the same either way";
+  EXPECT_NE(on.filter().robot_pose(2).x, off.filter().robot_pose(2).x);  // and they made a difference
+}
+
 TEST(Fusion, RobotWithUnknownStartIsLocalisedByRelocation) {
   const FleetScenario s = fleet_stream::make_fleet_scenario(2, 600);
   Fusion f(config_for(s, /*know_all=*/false));  // robot 2 has no prior

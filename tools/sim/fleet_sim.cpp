@@ -82,6 +82,7 @@ FleetSim::FleetSim(const FleetSimConfig& cfg) : cfg_(cfg) {
     prior.sigma = Vec3(0.05, 0.05, 0.02);
     fc.robots[static_cast<std::uint16_t>(id)] = prior;
   }
+  fc.robot_observations = cfg.robot_observations;
   fusion_ = std::make_unique<base::Fusion>(fc);
   // The grid covers the world with a margin unless configured otherwise.
   mapper::MapperConfig mc = cfg.mapper;
@@ -314,6 +315,10 @@ FleetSummary FleetSim::summary(double wall_seconds) const {
   }
   const std::size_t near = s.landmarks - s.landmarks_far;
   s.landmark_rmse_m = near ? std::sqrt(se / static_cast<double>(near)) : 0;
+  const base::FusionCounters& fcount = fusion_->counters();
+  s.robot_sightings = fcount.robot_sightings;
+  s.robot_sightings_unidentified = fcount.robot_sightings_unidentified;
+  s.robot_observations_used = fcount.robot_observations_used;
   for (const auto& box : outboxes_) {
     s.messages += box->sent;
     s.messages_lost += box->lost;

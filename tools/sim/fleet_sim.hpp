@@ -38,6 +38,7 @@ struct FleetSimConfig {
   Nanos link_latency = 5 * kNanosPerMilli;  // robot -> base, each message
   double link_loss = 0.0;                   // fraction of messages lost
   bool shared_world = false;                // robots see and collide with each other
+  bool robot_observations = true;           // the base fuses robots' sightings of each other
   Nanos sample_period = 100 * kNanosPerMilli;  // ground truth and estimates written at this rate
   mapper::MapperConfig mapper;                 // the base's central occupancy grid
   bool map_fits_world = true;                  // grid = the world's bounds + 2 m (else mapper's origin/size)
@@ -97,6 +98,8 @@ struct FleetSummary {
   double landmark_rmse_m = 0;   // each landmark to its nearest pole
   std::size_t landmarks_far = 0;  // farther than 0.5 m from any pole
   std::uint64_t messages = 0, messages_lost = 0;
+  // Robots seen by robots (shared world): sightings, those without a read marker, those fused.
+  std::uint64_t robot_sightings = 0, robot_sightings_unidentified = 0, robot_observations_used = 0;
   tools::MapQuality map;              // the central grid against the world's ground truth
   std::uint64_t map_scans = 0, map_scans_unplaced = 0;  // LaserScans inserted / not yet placeable
   double sim_seconds = 0, wall_seconds = 0, speed_factor = 0, steps_per_second = 0;

@@ -48,6 +48,10 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                       {"landmarks_far_from_any_pole", s.landmarks_far},
                       {"messages", s.messages},
                       {"messages_lost", s.messages_lost},
+                      {"robot_sightings",
+                       {{"seen", s.robot_sightings},
+                        {"unidentified", s.robot_sightings_unidentified},
+                        {"fused", s.robot_observations_used}}},
                       {"map",
                        {{"scans_inserted", s.map_scans},
                         {"scans_unplaced", s.map_scans_unplaced},
@@ -56,6 +60,7 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                         {"false_obstacles", s.map.false_obstacles},
                         {"false_free", s.map.false_free},
                         {"wall_offset_mean_cells", s.map.wall_offset_mean_cells()},
+                        {"wall_offset_p95_cells", s.map.resolution > 0 ? s.map.wall_offset_p95_m / s.map.resolution : 0.0},
                         {"wall_offset_max_cells", s.map.wall_offset_max_cells()}}},
                       {"sim_seconds", s.sim_seconds},
                       {"steps", s.steps}};
@@ -161,6 +166,9 @@ int run(const sim::FleetSimConfig& cfg, const std::string& out, bool json) {
     }
     std::printf("landmarks %zu (poles %zu), rmse to nearest pole %.3f m, %zu farther than 0.5 m\n", s.landmarks, s.poles,
                 s.landmark_rmse_m, s.landmarks_far);
+    std::printf("robots seen by robots: %llu sightings, %llu without a read marker, %llu fused\n",
+                static_cast<unsigned long long>(s.robot_sightings), static_cast<unsigned long long>(s.robot_sightings_unidentified),
+                static_cast<unsigned long long>(s.robot_observations_used));
     if (!s.coverage.empty()) {
       std::printf("coverage %.3f, agreement %.3f; time to", s.map.coverage, s.map.agreement);
       for (std::size_t k = 0; k < 4; ++k) {
@@ -208,6 +216,10 @@ int main(int argc, char** argv) {
   app.add_flag("--shared-world", cfg.shared_world,
                "one world for all robots: each sees the others' bodies (reflective markers) and collides with them "
                "(the scripted tours are not coordinated: crossing robots stop against each other, counted as bumps)");
+  bool alone = false;
+  app.add_flag("--no-robot-observations", alone,
+               "the base ignores robots' sightings of each other: each robot is localised alone (the baseline "
+               "cooperative localisation is compared with, docs/markers.md)");
   app.add_flag("--explore", cfg.explore,
                "explore instead of the scripted tours: frontier bids on the base's map, the base's task allocator, "
                "paths on the map; ends when the base reports the world explored or at --duration (docs/explore.md)");
@@ -221,6 +233,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   return run_program("cairn-sim", [&] {
     cfg.link_latency = static_cast<Nanos>(latency_ms * 1e6);
+    cfg.robot_observations = !alone;
     if (coverage_period_s < 0) coverage_period_s = cfg.explore ? 5.0 : 0.0;
     cfg.coverage_period = static_cast<Nanos>(coverage_period_s * 1e9);
     if (!robot_config.empty()) {
