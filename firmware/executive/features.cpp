@@ -132,7 +132,7 @@ bool fit_body(const lms::LmsScan& scan, std::size_t first, std::size_t last, con
   }
   // Not a body: points off the circle, or the circle behind the laser's side of them
   // (the inside of a curved wall).
-  if (std::sqrt(sq / static_cast<double>(n)) > cfg.body_fit_rms_m || c.norm() <= mean.norm()) return false;
+  if (!(std::sqrt(sq / static_cast<double>(n)) <= cfg.body_fit_rms_m) || !(c.norm() > mean.norm())) return false;
 
   // Each beam placed round the body: where its line meets the circle (measured ranges are
   // noisiest at grazing beams), as an angle round the centre from the point facing the laser.
@@ -186,15 +186,17 @@ void extract_features(const lms::LmsScan& scan, const Pose2& mount, const Featur
     bool flagged = false, more = false;
     const std::size_t j = cluster_end(i, &flagged);
     // A beam grazing a body's edge can land further than the range step from its
-    // neighbour: a body is tried with up to two such beams on either side, and they are
-    // its own whether or not the fit takes them (never a pole of their own).
-    std::size_t core_lo = i, core_hi = j, hi = j;
-    bool core_flagged = flagged;
+    // neighbour: a body is tried first with up to two such beams on either side. If it
+    // only fits without them, they are clusters of their own (the occlusion rule keeps
+    // a grazing beam, farther than the body beside it, from being a pole; a pole in
+    // front of the body stays one).
+    std::size_t core_lo = i, hi = j;
+    bool any_flagged = flagged;
     if (j - i < 2 && has_return(j + 1)) {
       core_lo = j + 1;
-      core_hi = hi = cluster_end(j + 1, &core_flagged);
+      hi = cluster_end(j + 1, &more);
+      any_flagged = any_flagged || more;
     }
-    bool any_flagged = flagged || core_flagged;
     if (has_return(hi + 1)) {
       const std::size_t k = cluster_end(hi + 1, &more);
       if (k - hi <= 2) {
@@ -203,10 +205,19 @@ void extract_features(const lms::LmsScan& scan, const Pose2& mount, const Featur
       }
     }
     ScanFeature body;
-    if (any_flagged && (fit_body(scan, i, hi, mount, cfg, &body) ||
-                        (core_flagged && fit_body(scan, core_lo, core_hi, mount, cfg, &body)))) {
+    if (hi != j && any_flagged && fit_body(scan, i, hi, mount, cfg, &body)) {
       add(body, out);
       i = hi + 1;
+      continue;
+    }
+    if (core_lo != i) {  // a leading sliver: on its own, then the cluster after it
+      if (flagged) emit_runs(scan, i, j, mount, cfg, out);
+      i = core_lo;
+      continue;
+    }
+    if (flagged && fit_body(scan, i, j, mount, cfg, &body)) {
+      add(body, out);
+      i = j + 1;
       continue;
     }
     if (flagged) emit_runs(scan, i, j, mount, cfg, out);
