@@ -264,6 +264,47 @@ bool Fusion::reexpress(msg::FeatureObservations* m, const Track& t) const {
   return true;
 }
 
+void Fusion::pair_unread_robots(ccml::RobotId me, const std::vector<UnreadSighting>& u, std::vector<Measurement>* batch) {
+  const std::size_t n = u.size();
+  // Each sighting to the one localised robot whose predicted position explains it (inside
+  // the innovation gate) while no other comes even close (inside the far stricter gate a
+  // new landmark must clear); two sightings in one scan claiming the same robot: neither.
+  // With a fleet of a few robots this is what joint compatibility would decide too.
+  const double gate = ccml::chi2_quantile(config_.limits.innovation_confidence, 2);
+  const double far = ccml::chi2_quantile(config_.new_feature_confidence, 2);
+  std::vector<std::uint16_t> chosen(n, 0);
+  for (std::size_t k = 0; k < n; ++k) {
+    std::uint16_t best = 0;
+    bool ambiguous = false;
+    for (const auto& [id, track] : tracks_) {
+      if (id == me || !track.localized || !filter_.has_robot(id)) continue;
+      const double nis = filter_.innovation({me, Measurement::Target::kRobot, id, u[k].z, u[k].R}).nis();
+      if (!(nis <= far)) continue;
+      if (best != 0 || !(nis <= gate)) {
+        ambiguous = true;
+        break;
+      }
+      best = id;
+    }
+    if (ambiguous || best == 0) {
+      ++counters_.robot_sightings_unpaired;
+      continue;
+    }
+    chosen[k] = best;
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    if (chosen[k] == 0) continue;
+    bool twice = false;
+    for (std::size_t l = 0; l < n; ++l) twice = twice || (l != k && chosen[l] == chosen[k]);
+    if (twice) {
+      ++counters_.robot_sightings_unpaired;
+      continue;
+    }
+    ++counters_.robot_sightings_paired;
+    batch->push_back({me, Measurement::Target::kRobot, chosen[k], u[k].z, u[k].R});
+  }
+}
+
 void Fusion::apply_features(const msg::FeatureObservations& m, Track& t) {
   t.have_features = true;
   t.feature_seq = m.seq;
@@ -273,13 +314,15 @@ void Fusion::apply_features(const msg::FeatureObservations& m, Track& t) {
   std::vector<Measurement> batch;
   std::vector<RangeBearing> lm_z;
   std::vector<Mat2> lm_R;
+  std::vector<UnreadSighting> unread;
   for (std::size_t i = 0; i < m.n_features; ++i) {
     const msg::Feature& f = m.features[i];
     const RangeBearing z{f.range, normalize_angle(f.bearing)};
     if (f.kind == msg::FeatureKind::kRobot) {
       ++counters_.robot_sightings;
-      if (f.marker_id == -1) {  // a marker not read: nothing to pair it with
+      if (f.marker_id == -1) {  // a marker not read: paired below, if one robot alone explains it
         ++counters_.robot_sightings_unidentified;
+        if (config_.robot_observations && t.localized) unread.push_back({z, mat2(f.cov)});
         continue;
       }
       if (!config_.robot_observations) continue;
@@ -299,6 +342,7 @@ void Fusion::apply_features(const msg::FeatureObservations& m, Track& t) {
     lm_z.push_back(z);
     lm_R.push_back(mat2(f.cov));
   }
+  pair_unread_robots(me, unread, &batch);
   if (!lm_z.empty()) {
     const Pose2 pose = filter_.robot_pose(me);
     std::vector<ccml::FeatureId> candidates;

@@ -70,9 +70,11 @@ struct FusionCounters {
   std::uint64_t feature_messages_applied = 0, feature_duplicates = 0, feature_late = 0, feature_stale = 0, pending_overflow = 0;
   std::uint64_t observations_used = 0, observations_new_features = 0, landmarks_pruned = 0;
   std::uint64_t robots_joined = 0, robots_localized = 0, robots_restarted = 0;
-  // Robots seen by robots: all sightings, those whose marker was not read (no identity:
-  // not fused), and those that entered an applied update.
+  // Robots seen by robots: all sightings, those whose marker was not read, and those that
+  // entered an applied update.
+  // Unread ones are paired with the one robot that alone explains them, or not at all.
   std::uint64_t robot_sightings = 0, robot_sightings_unidentified = 0, robot_observations_used = 0;
+  std::uint64_t robot_sightings_paired = 0, robot_sightings_unpaired = 0;
   RejectCounters rejected;  // by reason: messages and observations not applied
 };
 
@@ -150,6 +152,12 @@ class Fusion {
   Track& join(std::uint16_t robot, Track& t, const Pose2& local_now);
   void prune_tentative();
   void apply_features(const msg::FeatureObservations& m, Track& t);
+  struct UnreadSighting {  // a robot seen without its id
+    RangeBearing z;
+    Mat2 R;
+  };
+  /// Pairs each unread sighting with the one robot that explains it, into `batch`.
+  void pair_unread_robots(ccml::RobotId me, const std::vector<UnreadSighting>& unread, std::vector<ccml::Measurement>* batch);
   void remember(Track& t, const Mat3& cov);
   /// Re-expresses a late message's features from the robot's current pose; false if too old.
   bool reexpress(msg::FeatureObservations* m, const Track& t) const;

@@ -89,7 +89,7 @@ std::string FusionNode::summary() const {
   char buf[1024];
   std::snprintf(buf, sizeof buf,
                 "fusion: odometry %llu applied (%llu dup, %llu gaps), features %llu applied (%llu dup, %llu late, %llu stale), "
-                "observations %llu used / %llu new, robots seen %llu (%llu unread, %llu fused), landmarks pruned %llu, "
+                "observations %llu used / %llu new, robots seen %llu (%llu unread, %llu of them paired; %llu fused), landmarks pruned %llu, "
                 "robots %zu (%llu localised, %llu restarted), map %zu, "
                 "state %s; rejected: %s",
                 static_cast<unsigned long long>(c.odometry_applied), static_cast<unsigned long long>(c.odometry_duplicates),
@@ -97,7 +97,8 @@ std::string FusionNode::summary() const {
                 static_cast<unsigned long long>(c.feature_duplicates), static_cast<unsigned long long>(c.feature_late),
                 static_cast<unsigned long long>(c.feature_stale), static_cast<unsigned long long>(c.observations_used),
                 static_cast<unsigned long long>(c.observations_new_features), static_cast<unsigned long long>(c.robot_sightings),
-                static_cast<unsigned long long>(c.robot_sightings_unidentified), static_cast<unsigned long long>(c.robot_observations_used),
+                static_cast<unsigned long long>(c.robot_sightings_unidentified), static_cast<unsigned long long>(c.robot_sightings_paired),
+                static_cast<unsigned long long>(c.robot_observations_used),
                 static_cast<unsigned long long>(c.landmarks_pruned),
                 fusion_.robots().size(), static_cast<unsigned long long>(c.robots_localized),
                 static_cast<unsigned long long>(c.robots_restarted), fusion_.filter().feature_count(),

@@ -319,6 +319,7 @@ FleetSummary FleetSim::summary(double wall_seconds) const {
   s.robot_sightings = fcount.robot_sightings;
   s.robot_sightings_unidentified = fcount.robot_sightings_unidentified;
   s.robot_observations_used = fcount.robot_observations_used;
+  s.robot_sightings_paired = fcount.robot_sightings_paired;
   for (const auto& box : outboxes_) {
     s.messages += box->sent;
     s.messages_lost += box->lost;

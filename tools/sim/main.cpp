@@ -51,6 +51,7 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                       {"robot_sightings",
                        {{"seen", s.robot_sightings},
                         {"unidentified", s.robot_sightings_unidentified},
+                        {"unidentified_paired", s.robot_sightings_paired},
                         {"fused", s.robot_observations_used}}},
                       {"map",
                        {{"scans_inserted", s.map_scans},
@@ -166,9 +167,9 @@ int run(const sim::FleetSimConfig& cfg, const std::string& out, bool json) {
     }
     std::printf("landmarks %zu (poles %zu), rmse to nearest pole %.3f m, %zu farther than 0.5 m\n", s.landmarks, s.poles,
                 s.landmark_rmse_m, s.landmarks_far);
-    std::printf("robots seen by robots: %llu sightings, %llu without a read marker, %llu fused\n",
+    std::printf("robots seen by robots: %llu sightings, %llu without a read marker (%llu of them paired), %llu fused\n",
                 static_cast<unsigned long long>(s.robot_sightings), static_cast<unsigned long long>(s.robot_sightings_unidentified),
-                static_cast<unsigned long long>(s.robot_observations_used));
+                static_cast<unsigned long long>(s.robot_sightings_paired), static_cast<unsigned long long>(s.robot_observations_used));
     if (!s.coverage.empty()) {
       std::printf("coverage %.3f, agreement %.3f; time to", s.map.coverage, s.map.agreement);
       for (std::size_t k = 0; k < 4; ++k) {
