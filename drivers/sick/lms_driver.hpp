@@ -57,6 +57,8 @@ struct LmsScan {
   std::uint16_t count = 0;
   std::array<std::uint16_t, kMaxBeams> range_mm{};
   std::array<std::uint8_t, kMaxBeams> flags{};
+  /// Beam i's angle (rad, sensor frame).
+  double angle(std::size_t i) const { return angle_min + angle_increment * static_cast<double>(i); }
 };
 
 class ScanSink {

@@ -19,8 +19,8 @@ void add(const ScanFeature& f, ScanFeatures* out) {
 
 void emit(const lms::LmsScan& scan, std::size_t first, std::size_t last, const Pose2& mount, const FeatureConfig& cfg,
           ScanFeatures* out) {
-  const auto a0 = scan.angle_min + scan.angle_increment * static_cast<double>(first);
-  const auto a1 = scan.angle_min + scan.angle_increment * static_cast<double>(last);
+  const auto a0 = scan.angle(first);
+  const auto a1 = scan.angle(last);
   double sum = 0;
   for (std::size_t i = first; i <= last; ++i) sum += scan.range_mm[i] * 1e-3;
   const double r = sum / static_cast<double>(last - first + 1);
@@ -46,7 +46,7 @@ void emit(const lms::LmsScan& scan, std::size_t first, std::size_t last, const P
     double d = 0;
     for (std::size_t i = first; i <= last; ++i) {
       const double ri = scan.range_mm[i] * 1e-3;
-      const double delta = scan.angle_min + scan.angle_increment * static_cast<double>(i) - bearing_s;
+      const double delta = scan.angle(i) - bearing_s;
       const double lateral = ri * std::sin(delta);
       d += ri * std::cos(delta) + std::sqrt(std::max(0.0, R * R - lateral * lateral));
     }
@@ -92,7 +92,7 @@ void emit_runs(const lms::LmsScan& scan, std::size_t first, std::size_t last, co
 }
 
 Vec2 beam_point(const lms::LmsScan& scan, std::size_t i) {
-  const double a = scan.angle_min + scan.angle_increment * static_cast<double>(i);
+  const double a = scan.angle(i);
   const double r = scan.range_mm[i] * 1e-3;
   return {r * std::cos(a), r * std::sin(a)};
 }
@@ -139,7 +139,7 @@ bool fit_body(const lms::LmsScan& scan, std::size_t first, std::size_t last, con
   std::array<BodyBeam, lms::kMaxBeams> beams;
   const double facing = std::atan2(-c.y(), -c.x());
   for (std::size_t i = first; i <= last; ++i) {
-    const double ang = scan.angle_min + scan.angle_increment * static_cast<double>(i);
+    const double ang = scan.angle(i);
     const Vec2 u(std::cos(ang), std::sin(ang));
     const double offset = u.x() * c.y() - u.y() * c.x();  // the centre's side distance from the beam's line
     const Vec2 hit = (u.dot(c) - std::sqrt(std::max(0.0, R * R - offset * offset))) * u;

@@ -118,7 +118,7 @@ void RobotCore::on_scan(const lms::LmsScan& scan, Nanos now, RobotOutputs& out) 
   for (std::size_t i = 0; i < scan.count; ++i) {
     const double r = scan.range_mm[i] * 1e-3;
     if (scan.range_mm[i] == 0 || r < min_r || r > max_r || on_robot(i)) continue;
-    const double a = scan.angle_min + scan.angle_increment * static_cast<double>(i);
+    const double a = scan.angle(i);
     points_[n++] = transform_point(cfg_.laser_mount, Vec2(r * std::cos(a), r * std::sin(a)));
   }
   // Odometry up to the middle of the sweep, where the scan (matched as a rigid body) was
