@@ -7,13 +7,19 @@ namespace cairn::firmware {
 
 bool PathFollower::command(const Pose2& pose, double* v, double* w) {
   *v = *w = 0;
-  while (next_ < wp_.size() && (wp_[next_] - pose.translation()).norm() < std::max(c_.goal_tolerance, c_.lookahead * 0.5)) {
+  // Each waypoint passed at most once per call: a loop whose waypoints all lie within reach
+  // (one waypoint at the robot, say) went round for ever.
+  std::size_t passed = 0;
+  while (next_ < wp_.size() && passed < wp_.size() &&
+         (wp_[next_] - pose.translation()).norm() < std::max(c_.goal_tolerance, c_.lookahead * 0.5)) {
     from_ = wp_[next_];
     has_from_ = true;
     ++next_;
+    ++passed;
     if (next_ == wp_.size() && c_.loop) next_ = 0;
   }
   if (next_ >= wp_.size()) return false;
+  if (passed == wp_.size()) return true;  // a loop with nowhere to go: hold still (v = w = 0)
   // Pursue a point `lookahead` ahead on the segment to the next waypoint (not the
   // waypoint itself), so the robot converges onto the line instead of drifting beside it.
   const Vec2 from = has_from_ ? from_ : pose.translation();

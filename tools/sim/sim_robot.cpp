@@ -8,6 +8,7 @@ namespace {
 std::vector<Vec2> there_and_back(const std::vector<Vec2>& route, const Pose2& start) {
   // The follower works in the robot's local frame, whose origin is the start pose.
   std::vector<Vec2> out;
+  if (route.empty()) return out;  // no route: the robot stands where it starts
   const Pose2 to_local = inverse(start);
   for (const Vec2& p : route) out.push_back(transform_point(to_local, p));
   for (auto it = route.rbegin() + (route.size() > 1 ? 1 : 0); it != route.rend(); ++it) out.push_back(transform_point(to_local, *it));
