@@ -223,6 +223,7 @@ void FleetSim::run(const std::function<void(double)>& progress) {
         // robot does with a PoseCorrection).
         if (fusion_->correction(id, now_, &c)) {
           s.global = compose(c.local_to_global, r->core().local_pose());
+          s.global_cov = msg::to_mat(c.global_cov);
           s.has_global = true;
         }
         samples_.push_back(s);
@@ -278,7 +279,7 @@ FleetSummary FleetSim::summary(double wall_seconds) const {
     rs.scans = r->core().counters().scans;
     rs.matched = r->core().counters().matched;
     rs.bumps = r->bumps();
-    double sl = 0, sg = 0;
+    double sl = 0, sg = 0, nees_pose = 0, nees_position = 0;
     std::size_t nl = 0, ng = 0;
     for (const RobotSample& x : samples_) {
       if (x.robot != r->id()) continue;
@@ -291,7 +292,16 @@ FleetSummary FleetSim::summary(double wall_seconds) const {
         sg += eg * eg;
         ++ng;
         rs.global_final_err_m = eg;
+        Vec3 e = x.global.vector() - x.truth.vector();
+        e.z() = normalize_angle(e.z());
+        nees_pose += e.dot(x.global_cov.ldlt().solve(e));
+        const Vec2 ep = e.head<2>();
+        nees_position += ep.dot(x.global_cov.topLeftCorner<2, 2>().ldlt().solve(ep));
       }
+    }
+    if (ng) {
+      rs.global_nees_pose = nees_pose / static_cast<double>(ng);
+      rs.global_nees_position = nees_position / static_cast<double>(ng);
     }
     rs.local_rmse_m = nl ? std::sqrt(sl / static_cast<double>(nl)) : 0;
     rs.global_rmse_m = ng ? std::sqrt(sg / static_cast<double>(ng)) : 0;

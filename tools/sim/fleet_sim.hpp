@@ -82,6 +82,7 @@ struct RobotSample {
   Nanos t = 0;
   int robot = 0;
   Pose2 truth, local, global;
+  Mat3 global_cov = Mat3::Zero();  // the base's covariance of `global` (at its latest odometry)
   bool has_global = false;
 };
 
@@ -89,6 +90,10 @@ struct RobotSummary {
   int id = 0;
   double distance_m = 0;
   double local_rmse_m = 0, global_rmse_m = 0, local_final_err_m = 0, global_final_err_m = 0;
+  // Mean normalised estimation error squared of the global estimate against truth: about
+  // 3 (pose) and 2 (position) when the base's covariance is consistent, far above when it
+  // is overconfident. A filter that trusts a peer's overconfident estimate gets worse.
+  double global_nees_pose = 0, global_nees_position = 0;
   std::uint64_t scans = 0, matched = 0, bumps = 0;
 };
 

@@ -37,6 +37,8 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                       {"global_rmse_m", r.global_rmse_m},
                       {"local_final_error_m", r.local_final_err_m},
                       {"global_final_error_m", r.global_final_err_m},
+                      {"global_nees_pose", r.global_nees_pose},
+                      {"global_nees_position", r.global_nees_position},
                       {"scans", r.scans},
                       {"matched", r.matched},
                       {"bumps", r.bumps}});
@@ -104,17 +106,18 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
 void write_outputs(const std::string& dir, const sim::FleetSim& fleet, const sim::FleetSummary& s) {
   std::filesystem::create_directories(dir);
   std::ofstream truth(dir + "/trajectories.csv");
-  truth << "t_s,robot,truth_x,truth_y,truth_theta,local_x,local_y,local_theta,global_x,global_y,global_theta\n";
+  truth << "t_s,robot,truth_x,truth_y,truth_theta,local_x,local_y,local_theta,global_x,global_y,global_theta,global_var_x,global_var_y,global_var_theta\n";
   char line[320];
   for (const auto& x : fleet.samples()) {
     std::snprintf(line, sizeof line, "%.3f,%d,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,", nanos_to_seconds(x.t), x.robot, x.truth.x,
                   x.truth.y, x.truth.theta, x.local.x, x.local.y, x.local.theta);
     truth << line;
     if (x.has_global) {
-      std::snprintf(line, sizeof line, "%.6f,%.6f,%.6f\n", x.global.x, x.global.y, x.global.theta);
+      std::snprintf(line, sizeof line, "%.6f,%.6f,%.6f,%.9g,%.9g,%.9g\n", x.global.x, x.global.y, x.global.theta,
+                    x.global_cov(0, 0), x.global_cov(1, 1), x.global_cov(2, 2));
       truth << line;
     } else {
-      truth << ",,\n";
+      truth << ",,,,,\n";
     }
   }
   std::ofstream lm(dir + "/landmarks.csv");
@@ -158,10 +161,11 @@ int run(const sim::FleetSimConfig& cfg, const std::string& out, bool json) {
   if (json) {
     std::printf("%s\n", to_json(s, true).dump(2).c_str());
   } else {
-    std::printf("%-6s %10s %14s %15s %8s %8s %6s\n", "robot", "distance m", "local rmse m", "global rmse m", "scans",
-                "matched", "bumps");
+    std::printf("%-6s %10s %14s %15s %9s %8s %8s %6s\n", "robot", "distance m", "local rmse m", "global rmse m",
+                "nees (3)", "scans", "matched", "bumps");
     for (const auto& r : s.robots) {
-      std::printf("%-6d %10.1f %14.3f %15.3f %8llu %8llu %6llu\n", r.id, r.distance_m, r.local_rmse_m, r.global_rmse_m,
+      std::printf("%-6d %10.1f %14.3f %15.3f %9.1f %8llu %8llu %6llu\n", r.id, r.distance_m, r.local_rmse_m,
+                  r.global_rmse_m, r.global_nees_pose,
                   static_cast<unsigned long long>(r.scans), static_cast<unsigned long long>(r.matched),
                   static_cast<unsigned long long>(r.bumps));
     }
