@@ -1,5 +1,6 @@
 #include "firmware/localmap/local_mapper.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
@@ -54,6 +55,8 @@ void LocalMapper::reset(const Pose2& pose) {
   pose_ = pose;
   last_keyframe_ = pose;
   has_map_ = false;
+  map_relative_cov_.setZero();
+  map_relative_reported_.setZero();
   ring_next_ = ring_used_ = 0;
   current_->reset(pose.translation());
   // A request not claimed yet is dropped, a finished one too; one being built is dropped when ready.
@@ -155,7 +158,8 @@ LocalMapUpdate LocalMapper::add_scan(std::span<const Vec2> points, const Pose2& 
   // Wheel slip is not in the odometry's noise model: in the fusion it is trusted
   // `odometry_inflation` times less (variance), so the scan wins wherever it pins the pose.
   const Mat3 odom_local = cfg_.odometry_inflation * (rot * odom_cov * rot.transpose());
-  u.covariance = odom_cov;
+  Mat3 fused_local = odom_local;  // the scan's fused covariance (odometry's until matched)
+  bool relative = false;  // the error relative to the map was carried (else: odometry alone)
   if (has_map_) {
     u.match = matcher_.match(*current_, points, guess);
     if (u.match.ok) {
@@ -167,15 +171,21 @@ LocalMapUpdate LocalMapper::add_scan(std::span<const Vec2> points, const Pose2& 
       Vec3 fused = guess.vector() + k * innovation;
       fused.z() = normalize_angle(fused.z());
       pose_ = Pose2::from_vector(fused);
-      const Mat3 fused_local = (Mat3::Identity() - k) * odom_local;
-      u.covariance = rot.transpose() * fused_local * rot;
-      u.covariance = 0.5 * (u.covariance + u.covariance.transpose());
+      // The pose's error relative to the map (the current keyframes), carried by the same
+      // gain: where the scan pins the pose it stays bounded, where it does not (along a
+      // corridor) it grows with the odometry (inflated for slip, as in the gain: with the
+      // bare model a robot's drift along its path came out several times too small).
+      const Mat3 i_k = Mat3::Identity() - k;
+      map_relative_cov_ = i_k * (map_relative_cov_ + odom_local) * i_k.transpose() + k * u.match.covariance * k.transpose();
+      fused_local = i_k * odom_local;
       u.matched = true;
       ++counters_.matched;
+      relative = true;
     } else {
       ++counters_.rejected;
     }
   }
+  if (!relative) map_relative_cov_ += odom_local;  // not matched (or no map yet): odometry alone
   u.pose = pose_;
   u.increment = between(previous, pose_);
   const Pose2 since = between(last_keyframe_, pose_);
@@ -183,6 +193,39 @@ LocalMapUpdate LocalMapper::add_scan(std::span<const Vec2> points, const Pose2& 
       std::abs(since.theta) >= cfg_.keyframe_angle_rad) {
     add_keyframe(points);
     u.keyframe = true;
+  }
+  if (!cfg_.map_relative_drift) {
+    // The default: the scan's fused covariance (the bare odometry's when not matched), which
+    // the base sums scan by scan; far too loose in heading (docs/markers.md).
+    if (relative) {
+      u.covariance = rot.transpose() * fused_local * rot;
+      u.covariance = 0.5 * (u.covariance + u.covariance.transpose());
+    } else {
+      u.covariance = odom_cov;
+    }
+    if (u.keyframe) {
+      map_relative_cov_.setZero();
+      map_relative_reported_.setZero();
+    }
+    return u;
+  }
+  // map_relative_drift: scans matched against one map share that map's error, so their
+  // errors relative to it do not add up scan by scan; what the pose has drifted is that
+  // error as it stands when the scan becomes a keyframe, and so part of the map. Each scan
+  // reports how far the error relative to the map has grown beyond what this keyframe
+  // interval already reported (the positive part), so the base's covariance covers it
+  // between keyframes too, and a lost increment loses only its own share.
+  Mat3 grown = map_relative_cov_ - map_relative_reported_;
+  grown = 0.5 * (grown + grown.transpose());
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(grown);
+  const Mat3 positive =
+      eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+  map_relative_reported_ += positive;
+  u.covariance = rot.transpose() * positive * rot;
+  u.covariance = 0.5 * (u.covariance + u.covariance.transpose());
+  if (u.keyframe) {
+    map_relative_cov_.setZero();
+    map_relative_reported_.setZero();
   }
   return u;
 }

@@ -95,6 +95,19 @@ TEST(FleetSimMap, OfficeToursMapAgreesWithTheWorldAndEveryWallWithinACell) {
   EXPECT_LE(s.map.wall_offset_p95_m / s.map.resolution, 1.0);
 }
 
+double fleet_rmse(const sim::FleetSummary& s) {
+  double sum = 0;
+  for (const auto& r : s.robots) sum += r.global_rmse_m;
+  return sum / static_cast<double>(s.robots.size());
+}
+
+// The pole-free hall: a robot's only correction is another robot. The fleet fusing its
+// sightings must be better than each robot localised alone (the cooperative seed's claim).
+// With map_relative_drift it is (0.141 against 0.268 m on this seed). With the default
+// drift, each scan's fused covariance summed, it is 9 % worse on seeds 1–6: the base thinks
+// every heading far less certain than it is (σ 0.18 rad where the error is 0.002 rad) and
+// lets the sightings turn the fleet as a whole. The default stays until the bias that then
+// turns a landmark map is found (docs/markers.md).
 // Robots that see each other (docs/markers.md): the pole-free hall, three robots on
 // concentric loops in one world. Their coded markers are read (three in four: < 1/3 unread
 // asserted, ~25 % seen), the unread ones paired with the robot that explains them, and the
@@ -102,13 +115,24 @@ TEST(FleetSimMap, OfficeToursMapAgreesWithTheWorldAndEveryWallWithinACell) {
 // robot becomes a landmark (slivers of bodies were poles before the occlusion rule: 14
 // here); and the beams on the others' moving bodies are kept out of each robot's scan
 // matching (matched, they dragged robot 1's local frame to 2.1 m RMSE; alone it is 0.33 m).
-TEST(FleetSimMap, RobotsInOneWorldReadEachOthersMarkersAndAreNotMatchedAsWalls) {
+TEST(FleetSimMap, RobotsInOneWorldReadEachOthersMarkersAndTheFleetIsBetterForIt) {
   sim::FleetSimConfig c = office(7, 2, 150);
   c.world_path = std::string(CAIRN_SOURCE_DIR_STR) + "/hil/worlds/hall-bare.world";
   c.shared_world = true;
+  c.robot.localmap.map_relative_drift = true;  // with the default drift the fleet is worse (docs/markers.md)
+  sim::FleetSimConfig alone_cfg = c;
+  alone_cfg.robot_observations = false;
+  sim::FleetSim alone(alone_cfg);
+  alone.run();
+  const sim::FleetSummary a = alone.summary(1.0);
   sim::FleetSim f(c);
   f.run();
   const sim::FleetSummary s = f.summary(1.0);
+  std::printf("global rmse alone %.3f %.3f %.3f (fleet %.3f), cooperative %.3f %.3f %.3f (fleet %.3f) m\n",
+              a.robots[0].global_rmse_m, a.robots[1].global_rmse_m, a.robots[2].global_rmse_m, fleet_rmse(a),
+              s.robots[0].global_rmse_m, s.robots[1].global_rmse_m, s.robots[2].global_rmse_m, fleet_rmse(s));
+  EXPECT_LT(fleet_rmse(s), fleet_rmse(a));
+  EXPECT_EQ(a.robot_observations_used, 0u);
   std::printf("sightings %llu, unread %llu, fused %llu; landmarks %zu; local rmse %.3f %.3f %.3f m\n",
               static_cast<unsigned long long>(s.robot_sightings), static_cast<unsigned long long>(s.robot_sightings_unidentified),
               static_cast<unsigned long long>(s.robot_observations_used), s.landmarks, s.robots[0].local_rmse_m,

@@ -221,6 +221,9 @@ int main(int argc, char** argv) {
   app.add_flag("--shared-world", cfg.shared_world,
                "one world for all robots: each sees the others' bodies (reflective markers) and collides with them "
                "(the scripted tours are not coordinated: crossing robots stop against each other, counted as bumps)");
+  app.add_flag("--map-relative-drift", cfg.robot.localmap.map_relative_drift,
+               "robots report as drift only what their error relative to the local map grows by, not each scan's "
+               "fused covariance (docs/localmap.md; not the default: with landmarks the base's map turns)");
   bool alone = false;
   app.add_flag("--no-robot-observations", alone,
                "the base ignores robots' sightings of each other: each robot is localised alone (the baseline "
