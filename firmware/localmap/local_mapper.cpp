@@ -176,7 +176,8 @@ LocalMapUpdate LocalMapper::add_scan(std::span<const Vec2> points, const Pose2& 
       // corridor) it grows with the odometry (inflated for slip, as in the gain: with the
       // bare model a robot's drift along its path came out several times too small).
       const Mat3 i_k = Mat3::Identity() - k;
-      map_relative_cov_ = i_k * (map_relative_cov_ + odom_local) * i_k.transpose() + k * u.match.covariance * k.transpose();
+      if (cfg_.map_relative_drift)
+        map_relative_cov_ = i_k * (map_relative_cov_ + odom_local) * i_k.transpose() + k * u.match.covariance * k.transpose();
       fused_local = i_k * odom_local;
       u.matched = true;
       ++counters_.matched;
@@ -185,7 +186,6 @@ LocalMapUpdate LocalMapper::add_scan(std::span<const Vec2> points, const Pose2& 
       ++counters_.rejected;
     }
   }
-  if (!relative) map_relative_cov_ += odom_local;  // not matched (or no map yet): odometry alone
   u.pose = pose_;
   u.increment = between(previous, pose_);
   const Pose2 since = between(last_keyframe_, pose_);
@@ -203,12 +203,9 @@ LocalMapUpdate LocalMapper::add_scan(std::span<const Vec2> points, const Pose2& 
     } else {
       u.covariance = odom_cov;
     }
-    if (u.keyframe) {
-      map_relative_cov_.setZero();
-      map_relative_reported_.setZero();
-    }
     return u;
   }
+  if (!relative) map_relative_cov_ += odom_local;  // not matched (or no map yet): odometry alone
   // map_relative_drift: scans matched against one map share that map's error, so their
   // errors relative to it do not add up scan by scan; what the pose has drifted is that
   // error as it stands when the scan becomes a keyframe, and so part of the map. Each scan
