@@ -59,6 +59,7 @@ struct OdometryIncrement {
   /// seq and local frame restart with it. The base treats a new epoch as a restart and a
   /// retired one as stale. 0 = not set (a robot that predates epochs).
   std::uint32_t boot_epoch = 0;
+  friend bool operator==(const OdometryIncrement&, const OdometryIncrement&) = default;
 };
 
 /// One laser scan with the corrected local pose of the sensor at its first beam.
@@ -73,6 +74,7 @@ struct LaserScan {
   Pose2 pose;  // sensor, local frame
   Cov3 pose_cov{};
   Pose2 sensor_offset;  // laser in the robot frame
+  friend bool operator==(const LaserScan&, const LaserScan&) = default;
 };
 
 enum class FeatureKind : std::uint8_t { kLandmark = 0, kRobot = 1 };
@@ -82,6 +84,7 @@ struct Feature {
   std::int32_t marker_id = -1;  // robot id of a decoded robot marker, else -1
   double range = 0, bearing = 0;
   Cov2 cov{};  // (range, bearing)
+  friend bool operator==(const Feature&, const Feature&) = default;
 };
 
 struct FeatureObservations {
@@ -93,6 +96,7 @@ struct FeatureObservations {
   std::uint32_t boot_epoch = 0;  // as OdometryIncrement::boot_epoch
   std::uint8_t n_features = 0;
   std::array<Feature, kMaxFeatures> features{};
+  friend bool operator==(const FeatureObservations&, const FeatureObservations&) = default;
 };
 
 /// The base's estimate for one robot: global = local_to_global ⊕ local.
@@ -103,6 +107,7 @@ struct PoseCorrection {
   Pose2 local_to_global;
   Pose2 global_pose;
   Cov3 global_cov{};
+  friend bool operator==(const PoseCorrection&, const PoseCorrection&) = default;
 };
 
 enum class TaskKind : std::uint8_t { kIdle = 0, kExplore = 1, kGoto = 2, kStop = 3 };
@@ -117,6 +122,7 @@ struct TaskAssignment {
   double target_x = 0, target_y = 0;  // global frame
   std::uint16_t n_path = 0;
   std::array<double, 2 * kMaxPath> path_xy{};  // global frame, x0 y0 x1 y1 ...
+  friend bool operator==(const TaskAssignment&, const TaskAssignment&) = default;
 };
 
 /// One frontier a robot offers to explore (global frame): the cell, its expected
@@ -127,6 +133,7 @@ struct BidItem {
   double gain = 0;  // cells
   double cost = 0;  // m
   double igr_min_x = 0, igr_min_y = 0, igr_max_x = 0, igr_max_y = 0;
+  friend bool operator==(const BidItem&, const BidItem&) = default;
 };
 
 /// A robot's best frontier items after a map update (robot -> base).
@@ -136,6 +143,7 @@ struct Bid {
   std::uint32_t map_version = 0;  // the map the items were computed on
   std::uint16_t n_items = 0;
   std::array<BidItem, kMaxBids> items{};
+  friend bool operator==(const Bid&, const Bid&) = default;
 };
 
 /// An operator's explicit e-stop reset for one robot (the robot's e-stop latches).

@@ -34,6 +34,7 @@ struct Pose2 {
   static Pose2 from_vector(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
   Vec3 vector() const { return {x, y, theta}; }
   Vec2 translation() const { return {x, y}; }
+  friend bool operator==(const Pose2&, const Pose2&) = default;  // exact, member by member
   Mat2 rotation() const {
     const double c = std::cos(theta), s = std::sin(theta);
     Mat2 r;

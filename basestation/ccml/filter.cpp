@@ -111,7 +111,10 @@ FeatureId CcmlFilter::add_feature(RobotId observer, const RangeBearing& z, const
   const Eigen::MatrixXd cross = g_pose * P_.block(o, 0, 3, f);
   P_.block(f, 0, 2, f) = cross;
   P_.block(0, f, f, 2) = cross.transpose();
-  P_.block<2, 2>(f, f) = g_pose * P_.block<3, 3>(o, o) * g_pose.transpose() + g_z * R * g_z.transpose();
+  // Symmetrised: the two triangles of A P Aᵀ are rounded apart (exactly equal under GCC
+  // by luck, 1.7e-18 apart under clang), and the update keeps P exactly symmetric.
+  const Mat2 own = g_pose * P_.block<3, 3>(o, o) * g_pose.transpose() + g_z * R * g_z.transpose();
+  P_.block<2, 2>(f, f) = 0.5 * (own + own.transpose());
   (void)n;
   const FeatureId id = next_feature_++;
   features_[id] = {f, 2};
@@ -121,7 +124,7 @@ FeatureId CcmlFilter::add_feature(RobotId observer, const RangeBearing& z, const
 FeatureId CcmlFilter::add_feature_prior(const Vec2& position, const Mat2& cov) {
   const int f = append(2);
   x_.segment<2>(f) = position;
-  P_.block<2, 2>(f, f) = cov;
+  P_.block<2, 2>(f, f) = 0.5 * (cov + cov.transpose());
   const FeatureId id = next_feature_++;
   features_[id] = {f, 2};
   return id;

@@ -183,7 +183,7 @@ class Mapper {
 
   MapperConfig config_;
   GridGeometry geometry_;
-  std::int32_t l_hit_ = 0, l_miss_ = 0, l_min_ = 0, l_max_ = 0, l_o_ = 0, l_c_ = 0;  // milli-log-odds
+  std::int32_t l_hit_ = 0, l_miss_ = 0, l_min_ = 0, l_max_ = 0;  // milli-log-odds
   std::vector<std::int32_t> sum_;        // unclamped milli-log-odds per cell
   std::vector<std::uint32_t> observed_;  // number of stored/frozen scans that touched the cell
   std::vector<std::uint32_t> mark_;      // per-scan "already updated" stamps

@@ -20,8 +20,6 @@ constexpr std::uint8_t kSettled = 4;
 constexpr std::uint8_t kNearWall = 8;  // clear, within radius + clearance margin of an obstacle
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 constexpr double kEps = 1e-9;
-constexpr int kDi4[4] = {1, -1, 0, 0};
-constexpr int kDj4[4] = {0, 0, 1, -1};
 
 void require(bool ok, const char* parameter, const std::string& rule, double got) {
   if (!ok)

@@ -123,7 +123,8 @@ double LikelihoodGrid::sample(const Vec2& p, Vec2* gradient) const {
   }
   const int x = static_cast<int>(gx), y = static_cast<int>(gy);
   const double fx = gx - x, fy = gy - y;
-  const double v00 = cell(x, y), v10 = cell(x + 1, y), v01 = cell(x, y + 1), v11 = cell(x + 1, y + 1);
+  const double v00 = static_cast<double>(cell(x, y)), v10 = static_cast<double>(cell(x + 1, y));
+  const double v01 = static_cast<double>(cell(x, y + 1)), v11 = static_cast<double>(cell(x + 1, y + 1));
   if (gradient) {
     gradient->x() = ((v10 - v00) * (1 - fy) + (v11 - v01) * fy) * inv_res_;
     gradient->y() = ((v01 - v00) * (1 - fx) + (v11 - v10) * fx) * inv_res_;

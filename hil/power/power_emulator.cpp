@@ -23,7 +23,7 @@ modbus_mapping_t* as_mapping(void* p) { return static_cast<modbus_mapping_t*>(p)
 }  // namespace
 
 PowerEmulator::PowerEmulator(Link link, modbus::RegisterMap map, BatteryConfig battery)
-    : link_(link), map_(map), battery_(battery) {
+    : map_(map), battery_(battery) {
   const int regs = std::max({map_.voltage, map_.current, map_.soc, map_.temperature}) + 1;
   mapping_ = modbus_mapping_new(map_.motor_relay + 1, std::max(map_.estop, map_.reset_input) + 1, 0, regs);
   if (!mapping_) throw std::runtime_error("power emulator: modbus_mapping_new failed");

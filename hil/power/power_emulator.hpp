@@ -62,7 +62,6 @@ class PowerEmulator {
   void update_model();
   int handle(std::uint8_t* query, int len, void* ctx);
 
-  Link link_;
   modbus::RegisterMap map_;
   BatteryConfig battery_;
   std::string uri_;

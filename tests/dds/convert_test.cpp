@@ -17,11 +17,6 @@ void set_raw_enum(E* field, int value) {
   std::memcpy(field, &value, sizeof value);
 }
 
-template <typename T>
-bool same_bytes(const T& a, const T& b) {
-  return std::memcmp(&a, &b, sizeof(T)) == 0;
-}
-
 TEST(Convert, OdometryRoundTrip) {
   msg::OdometryIncrement a;
   a.robot_id = 7;
@@ -68,7 +63,7 @@ TEST(Convert, LaserScanRoundTripAndClamp) {
   dds::to_dds(*a, d.get());
   auto b = std::make_unique<msg::LaserScan>();
   EXPECT_TRUE(dds::from_dds(*d, b.get()));
-  EXPECT_TRUE(same_bytes(*a, *b));
+  EXPECT_EQ(*a, *b);  // member by member (padding bytes are unspecified)
   d->n_beams = 60000;  // hostile
   EXPECT_FALSE(dds::from_dds(*d, b.get()));
   EXPECT_EQ(b->n_beams, msg::kMaxBeams);
@@ -92,7 +87,7 @@ TEST(Convert, FeaturesRoundTripAndClamp) {
   EXPECT_EQ(d.boot_epoch, 77u);
   msg::FeatureObservations b;
   EXPECT_TRUE(dds::from_dds(d, &b));
-  EXPECT_TRUE(same_bytes(a, b));
+  EXPECT_EQ(a, b);  // member by member (padding bytes are unspecified)
   d.n_features = 200;
   EXPECT_FALSE(dds::from_dds(d, &b));
   EXPECT_EQ(b.n_features, msg::kMaxFeatures);
@@ -113,7 +108,7 @@ TEST(Convert, CorrectionAndTaskRoundTrip) {
   dds::to_dds(c, &dc);
   msg::PoseCorrection c2;
   EXPECT_TRUE(dds::from_dds(dc, &c2));
-  EXPECT_TRUE(same_bytes(c, c2));
+  EXPECT_EQ(c, c2);  // member by member (padding bytes are unspecified)
 
   msg::TaskAssignment t;
   t.robot_id = 4;
@@ -129,7 +124,7 @@ TEST(Convert, CorrectionAndTaskRoundTrip) {
   dds::to_dds(t, &dt);
   msg::TaskAssignment t2;
   EXPECT_TRUE(dds::from_dds(dt, &t2));
-  EXPECT_TRUE(same_bytes(t, t2));
+  EXPECT_EQ(t, t2);  // member by member (padding bytes are unspecified)
   dt.n_path = 1000;
   set_raw_enum(&dt.kind, 42);
   EXPECT_FALSE(dds::from_dds(dt, &t2));

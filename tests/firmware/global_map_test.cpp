@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #ifdef CAIRN_COUNT_ALLOCS
@@ -124,7 +125,7 @@ TEST(GlobalMap, BadTilesAreRefusedAndCounted) {
   EXPECT_EQ(map.apply(tile(0, 0, a, std::nan(""))), GlobalMap::Applied::kInvalid);
   EXPECT_EQ(map.apply(tile(0, 0, a, 0.0)), GlobalMap::Applied::kInvalid);
   EXPECT_EQ(map.apply(tile(0, 0, a, -0.15)), GlobalMap::Applied::kInvalid);
-  EXPECT_EQ(map.apply(tile(0, 0, a, 0.15, INFINITY)), GlobalMap::Applied::kInvalid);
+  EXPECT_EQ(map.apply(tile(0, 0, a, 0.15, std::numeric_limits<double>::infinity())), GlobalMap::Applied::kInvalid);
   EXPECT_EQ(map.apply(tile(0, 0, a, 0.15, 1e9)), GlobalMap::Applied::kInvalid);
   TileView short_tile = tile(0, 0, a);
   short_tile.cells = short_tile.cells.first(100);

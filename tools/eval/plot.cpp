@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -64,8 +65,8 @@ void ellipse_points(double cx, double cy, double sxx, double sxy, double syy, do
     xs->push_back(cx + p.x());
     ys->push_back(cy + p.y());
   }
-  xs->push_back(NAN);  // gnuplot breaks the line at NaN
-  ys->push_back(NAN);
+  xs->push_back(std::numeric_limits<double>::quiet_NaN());  // gnuplot breaks the line at NaN
+  ys->push_back(std::numeric_limits<double>::quiet_NaN());
 }
 
 }  // namespace cairn::eval

@@ -22,7 +22,7 @@ void carmen_points(const CarmenScan& s, double min_range, double max_range, std:
   out->clear();
   const std::size_t n = s.ranges.size();
   for (std::size_t i = 0; i < n; ++i) {
-    const double r = s.ranges[i];
+    const double r = static_cast<double>(s.ranges[i]);
     if (!(r > min_range && r < max_range)) continue;
     const double a = carmen_beam_angle(i, n);
     out->emplace_back(r * std::cos(a), r * std::sin(a));
