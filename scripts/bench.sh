@@ -19,12 +19,12 @@ if [[ $what == lms || $what == all ]]; then
 fi
 if [[ $what == ccml || $what == all ]]; then
   echo "== CCML: Cairn's EKF vs MRPT's CRangeBearingKFSLAM2D"
-  "$B/cairn-bench-ccml-mrpt" --steps 200 --mrclam ../shared/datasets/mrclam/MRCLAM_Dataset6
+  "$B/cairn-bench-ccml-mrpt" --steps 200 --mrclam data/mrclam/MRCLAM_Dataset6
   echo "== CCML: twenty robots into the base's fusion at their real rates (symmetric vs Joseph update)"
   "$B/cairn-bench-fleet-fusion" --robots 20 --landmarks 300 --seconds 20 --warmup 40
 fi
 if [[ $what == scans || $what == all ]]; then
   echo "== Scan matching: Cairn's matcher vs MRPT ICP on the Intel and ACES Carmen logs"
-  C=../shared/datasets/radish-corrected-carmen
+  C=data/radish-corrected-carmen
   "$B/cairn-bench-scan-mrpt" "$C/intel-corrected.log.gz" "$C/aces-corrected.log.gz"
 fi

@@ -41,8 +41,8 @@ TEST(CairnEval, VehiclesNeededAndBadArguments) {
 // The documented noise procedure from the command line: fitted on Dataset 6's first 300 s,
 // scored after them; a dataset without robot ground truth cannot calibrate.
 TEST(CairnEval, MrclamCalibratesOnAHeldOutWindowAndRefusesDatasetsWithoutGroundTruth) {
-  const std::string root = std::string(CAIRN_SOURCE_DIR_STR) + "/../shared/datasets/mrclam/MRCLAM_Dataset";
-  if (!std::filesystem::exists(root + "6/Barcodes.dat")) GTEST_SKIP() << "no " << root << "6";
+  const std::string root = std::string(CAIRN_SOURCE_DIR_STR) + "/data/mrclam/MRCLAM_Dataset";
+  ASSERT_TRUE(std::filesystem::exists(root + "6/Barcodes.dat.gz")) << "no " << root << "6 (it is in the repository)";
   testing::Subprocess p({CAIRN_EVAL_BIN, "mrclam", root + "6", "--association", "labels", "--calibrate-on", root + "6", "--json"});
   ASSERT_EQ(p.wait(120s), 0) << p.output();
   const auto start = p.output().find("\n{");  // progress lines (stderr) come first on the shared pipe
@@ -60,7 +60,7 @@ TEST(CairnEval, MrclamCalibratesOnAHeldOutWindowAndRefusesDatasetsWithoutGroundT
     EXPECT_LE(nees, 4.5);
   }
   EXPECT_TRUE(found) << p.output();
-  if (!std::filesystem::exists(root + "1/Barcodes.dat")) GTEST_SKIP() << "no " << root << "1";
+  ASSERT_TRUE(std::filesystem::exists(root + "1/Barcodes.dat.gz")) << "no " << root << "1 (it is in the repository)";
   testing::Subprocess bad({CAIRN_EVAL_BIN, "mrclam", root + "6", "--calibrate-on", root + "1"});
   EXPECT_EQ(bad.wait(60s), 1);
   EXPECT_NE(bad.output().find("needs robot ground truth"), std::string::npos) << bad.output();

@@ -1,6 +1,7 @@
 #include "tools/datasets/carmen_log.hpp"
 
-#include <zlib.h>
+#include "tools/datasets/text_lines.hpp"
+
 
 #include <charconv>
 #include <cmath>
@@ -77,24 +78,9 @@ void parse_carmen_line(std::string_view line, std::uint64_t line_no, CarmenLog* 
 }
 
 CarmenLog read_carmen_log(const std::string& path) {
-  gzFile f = gzopen(path.c_str(), "rb");  // reads plain files too
-  if (!f) throw std::runtime_error("cannot open Carmen log '" + path + "'");
   CarmenLog log;
-  std::string line;
-  char buf[4096];
-  std::uint64_t line_no = 0;
-  while (gzgets(f, buf, sizeof buf)) {
-    line += buf;
-    if (!line.empty() && line.back() != '\n' && !gzeof(f)) continue;  // a long line: keep reading
-    parse_carmen_line(line, ++line_no, &log);
-    line.clear();
-  }
-  if (!line.empty()) parse_carmen_line(line, ++line_no, &log);
-  int err = 0;
-  const char* msg = gzerror(f, &err);
-  gzclose(f);
-  if (err != Z_OK && err != Z_STREAM_END)
-    throw std::runtime_error("reading Carmen log '" + path + "': " + (msg ? msg : "zlib error"));
+  if (!datasets::for_each_line(path, [&](const std::string& line, std::uint64_t line_no) { parse_carmen_line(line, line_no, &log); }))
+    throw std::runtime_error("cannot open Carmen log '" + path + "'");
   return log;
 }
 

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "basestation/ccml/jcbb.hpp"
+#include "tools/datasets/text_lines.hpp"
 
 namespace cairn::ccml {
 
@@ -30,30 +31,26 @@ bool MrclamData::has_robot_groundtruth() const {
 namespace {
 
 // Rows of whitespace-separated numbers; '#' lines and CR are ignored.
-std::vector<std::vector<double>> read_table(const std::string& path, std::size_t columns, bool required) {
-  std::ifstream in(path);
-  if (!in) {
-    if (required) throw std::runtime_error(path + ": cannot open");
-    return {};
-  }
+// `path` may be stored gzipped as `path.gz` (data/mrclam/ is).
+std::vector<std::vector<double>> read_table(const std::string& wanted, std::size_t columns, bool required) {
+  const std::string path = datasets::plain_or_gz(wanted);
   std::vector<std::vector<double>> rows;
-  std::string line;
-  std::size_t lineno = 0;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
+  const bool opened = datasets::for_each_line(path, [&](const std::string& text, std::uint64_t lineno) {
+    std::string_view line = text;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
     const auto first = line.find_first_not_of(" \t");
-    if (first == std::string::npos || line[first] == '#') continue;
-    std::istringstream s(line);
+    if (first == std::string_view::npos || line[first] == '#') return;
+    std::istringstream s{std::string(line)};
     std::vector<double> row(columns);
     for (std::size_t c = 0; c < columns; ++c) {
       if (!(s >> row[c]) || !std::isfinite(row[c])) {
         throw std::runtime_error(path + ":" + std::to_string(lineno) + ": expected " + std::to_string(columns) +
-                                 " numbers, got '" + line + "'");
+                                 " numbers, got '" + std::string(line) + "'");
       }
     }
     rows.push_back(std::move(row));
-  }
+  });
+  if (!opened && required) throw std::runtime_error(path + ": cannot open");
   return rows;
 }
 

@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
   MrclamCmdOptions mr;
   auto* mc = app.add_subcommand("mrclam",
                                 "UTIAS MRCLAM dataset: dead reckoning, single-robot EKF-SLAM and cooperative CML vs ground truth");
-  mc->add_option("dir", mr.dir, "dataset directory (e.g. ../shared/datasets/mrclam/MRCLAM_Dataset6)")->required()->check(CLI::ExistingDirectory);
+  mc->add_option("dir", mr.dir, "dataset directory (e.g. data/mrclam/MRCLAM_Dataset6; files plain or .gz)")->required()->check(CLI::ExistingDirectory);
   mc->add_option("--association", mr.association, "landmark data association: labels, jcbb or both")
       ->check(CLI::IsMember({"labels", "jcbb", "both"}));
   mc->add_option("--duration", mr.duration, "use only the first S seconds (0 = all)")->check(CLI::NonNegativeNumber);
@@ -52,7 +52,7 @@ int main(int argc, char** argv) {
   auto* sn = app.add_subcommand("scans",
                                 "Carmen laser log: register consecutive scan pairs from perturbed reference poses, then run "
                                 "the local mapper with perturbed odometry; errors against the log's reference poses");
-  sn->add_option("log", sc.log, "Carmen log, plain or .gz (e.g. ../shared/datasets/radish-corrected-carmen/intel-corrected.log.gz)")
+  sn->add_option("log", sc.log, "Carmen log, plain or .gz (e.g. data/radish-corrected-carmen/intel-corrected.log.gz)")
       ->required()
       ->check(CLI::ExistingFile);
   sn->add_option("--sigma-xy", sc.sigma_xy, "initial-guess noise per axis (m)")->check(CLI::NonNegativeNumber);
