@@ -26,8 +26,8 @@ if ((quick == 0)); then
     ctest --preset asan -j2 -LE 'bench|slow|packaging|layers'
   stage "build (tsan preset: ThreadSanitizer, -Werror)"
   scripts/build.sh tsan
-  stage "unit and integration tests under TSan"
-  TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1" ctest --preset tsan -j2 -LE 'bench|slow|packaging|layers'
+  stage "unit and integration tests under TSan (not those labelled single-threaded)"
+  TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1" ctest --preset tsan -j2 -LE 'bench|slow|packaging|layers|single-threaded'
   stage "fuzz targets (clang libFuzzer + ASan/UBSan), 30 s each"
   scripts/fuzz.sh 30
   stage "cross-build the robot side for aarch64 (-Werror); its tests and package under qemu-user"
