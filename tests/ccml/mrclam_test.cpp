@@ -3,10 +3,12 @@
 // small hand-made dataset (a robot whose ground truth starts late).
 #include "tools/datasets/mrclam.hpp"
 #include "tools/datasets/mrclam_calibration.hpp"
+#include "tools/datasets/read_text.hpp"
 
 #include <gtest/gtest.h>
 
 #include <unistd.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <cmath>
@@ -28,6 +30,32 @@ std::string dataset(int n) {
 // The data is in the repository (data/mrclam, gzipped): missing, it is a failure, not a skip.
 #define REQUIRE_DATASET(n) \
   ASSERT_TRUE(std::filesystem::exists(dataset(n) + "/Barcodes.dat.gz")) << "no " << dataset(n)
+
+// The data in data/ is gzipped: a .gz and its plain text read the same, and a truncated
+// .gz is an error naming the file, not a shorter table.
+TEST(ReadText, GzipAndPlainReadTheSameAndATruncatedGzipIsAnError) {
+  const auto dir = std::filesystem::temp_directory_path() / ("cairn-read-text-" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  std::string text;
+  for (int i = 0; i < 20000; ++i) text += std::to_string(i) + " 0.5 -1.25\r\n";
+  const std::string plain = (dir / "t.dat").string(), gz = (dir / "u.dat.gz").string(), cut = (dir / "cut.dat.gz").string();
+  std::ofstream(plain, std::ios::binary) << text;
+  gzFile f = gzopen(gz.c_str(), "wb9");
+  ASSERT_NE(f, nullptr);
+  ASSERT_EQ(gzwrite(f, text.data(), static_cast<unsigned>(text.size())), static_cast<int>(text.size()));
+  ASSERT_EQ(gzclose(f), Z_OK);
+  EXPECT_EQ(datasets::read_text_file(plain), text);
+  EXPECT_EQ(datasets::read_text_file(gz), text);
+  EXPECT_EQ(datasets::plain_or_gz((dir / "u.dat").string()), gz);
+  EXPECT_EQ(datasets::plain_or_gz(plain), plain);
+  EXPECT_FALSE(datasets::read_text_file((dir / "none.dat").string()).has_value());
+  std::ifstream in(gz, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_GT(bytes.size(), 100u);
+  std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  EXPECT_THROW(datasets::read_text_file(cut), std::runtime_error);
+  std::filesystem::remove_all(dir);
+}
 
 TEST(Mrclam, Dataset6CooperativeBeatsSingleRobotByAtLeast30Percent) {
   REQUIRE_DATASET(6);
@@ -172,7 +200,7 @@ TEST_F(MrclamLateGroundTruth, ARobotWhoseGroundTruthStartsLateJoinsAtItsFirstSam
 }
 
 // The calibration procedure on a made dataset whose noise is known, so that it runs on
-// a clone without ../shared too: five robots circling four landmarks for 320 s, every
+// any machine without the real data too: five robots circling four landmarks for 320 s, every
 // sighting's range and bearing perturbed with σ 0.10 m and 0.02 rad. Step 1 must recover
 // both; a residual taken in the wrong frame or a wrong spread estimate does not.
 TEST(MrclamCalibration, RecoversTheMeasurementNoiseOfAMadeDataset) {

@@ -1,6 +1,7 @@
 #include "tools/datasets/carmen_log.hpp"
 
-#include "tools/datasets/text_lines.hpp"
+#include "common/text_lines.hpp"
+#include "tools/datasets/read_text.hpp"
 
 
 #include <charconv>
@@ -78,9 +79,10 @@ void parse_carmen_line(std::string_view line, std::uint64_t line_no, CarmenLog* 
 }
 
 CarmenLog read_carmen_log(const std::string& path) {
+  const std::optional<std::string> text = datasets::read_text_file(path);
+  if (!text) throw std::runtime_error("cannot open Carmen log '" + path + "'");
   CarmenLog log;
-  if (!datasets::for_each_line(path, [&](const std::string& line, std::uint64_t line_no) { parse_carmen_line(line, line_no, &log); }))
-    throw std::runtime_error("cannot open Carmen log '" + path + "'");
+  for_each_line(*text, [&](std::size_t line_no, const std::string& line) { parse_carmen_line(line, line_no, &log); });
   return log;
 }
 

@@ -8,7 +8,8 @@
 #include <stdexcept>
 
 #include "basestation/ccml/jcbb.hpp"
-#include "tools/datasets/text_lines.hpp"
+#include "common/text_lines.hpp"
+#include "tools/datasets/read_text.hpp"
 
 namespace cairn::ccml {
 
@@ -34,9 +35,14 @@ namespace {
 // `path` may be stored gzipped as `path.gz` (data/mrclam/ is).
 std::vector<std::vector<double>> read_table(const std::string& wanted, std::size_t columns, bool required) {
   const std::string path = datasets::plain_or_gz(wanted);
+  const std::optional<std::string> text = datasets::read_text_file(path);
+  if (!text) {
+    if (required) throw std::runtime_error(path + ": cannot open");
+    return {};
+  }
   std::vector<std::vector<double>> rows;
-  const bool opened = datasets::for_each_line(path, [&](const std::string& text, std::uint64_t lineno) {
-    std::string_view line = text;
+  for_each_line(*text, [&](std::size_t lineno, const std::string& whole) {
+    std::string_view line = whole;
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
     const auto first = line.find_first_not_of(" \t");
     if (first == std::string_view::npos || line[first] == '#') return;
@@ -50,7 +56,6 @@ std::vector<std::vector<double>> read_table(const std::string& wanted, std::size
     }
     rows.push_back(std::move(row));
   });
-  if (!opened && required) throw std::runtime_error(path + ": cannot open");
   return rows;
 }
 
