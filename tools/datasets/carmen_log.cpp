@@ -1,12 +1,12 @@
 #include "tools/datasets/carmen_log.hpp"
 
-#include "common/text_lines.hpp"
-#include "tools/datasets/read_text.hpp"
-
-
 #include <charconv>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
+
+#include "common/text_lines.hpp"
+#include "tools/datasets/read_text.hpp"
 
 namespace cairn::eval {
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <fstream>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
