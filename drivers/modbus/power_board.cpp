@@ -150,7 +150,7 @@ void PowerBoard::note_failure() {
   }
 }
 
-bool PowerBoard::poll(PowerState* out, std::string* error) {
+bool PowerBoard::poll(PowerState* out, PowerFault* fault) {
   ++counters_.polls;
   std::uint16_t regs[4];
   // One read covers the four registers when they are consecutive (the usual map).
@@ -159,7 +159,7 @@ bool PowerBoard::poll(PowerState* out, std::string* error) {
   std::uint16_t block[kMaxReadRegisters];
   // A span over kMaxReadRegisters is refused by validate_register_map(); kept as a guard.
   if (hi - lo >= kMaxReadRegisters || modbus_read_input_registers(ctx_, lo, hi - lo + 1, block) != hi - lo + 1) {
-    *error = uri_ + ": reading input registers: " + modbus_strerror(errno);
+    *fault = {"reading input registers", modbus_strerror(errno)};
     note_failure();
     return false;
   }
@@ -169,7 +169,7 @@ bool PowerBoard::poll(PowerState* out, std::string* error) {
   regs[3] = block[map_.temperature - lo];
   if (!decode_power(regs, false, map_, out)) {
     ++counters_.invalid;
-    *error = uri_ + ": implausible power reading (check the register map)";
+    *fault = {"implausible power reading", "check the register map"};
     return false;
   }
   out->stamp = MonotonicClock::instance().now();
@@ -190,10 +190,10 @@ bool PowerBoard::read_safety_inputs(SafetyInputBits* out) {
   return true;
 }
 
-bool PowerBoard::set_motor_power(bool on, std::string* error) {
+bool PowerBoard::set_motor_power(bool on, PowerFault* fault) {
   ++counters_.relay_writes;
   if (modbus_write_bit(ctx_, map_.motor_relay, on ? 1 : 0) != 1) {
-    *error = uri_ + ": switching the motor relay: " + modbus_strerror(errno);
+    *fault = {"switching the motor relay", modbus_strerror(errno)};
     note_failure();
     return false;
   }

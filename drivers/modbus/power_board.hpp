@@ -41,7 +41,7 @@ class PowerBoard final : public PowerLink {
 
   /// Reads the battery values: one transaction (the four input registers). The e-stop is
   /// not read here (read_safety_inputs() is the fast path). False with a reason on failure.
-  bool poll(PowerState* out, std::string* error) override;
+  bool poll(PowerState* out, PowerFault* fault) override;
   /// The e-stop fast path: one short transaction reading the e-stop and reset discrete
   /// inputs (one read when they lie within kMaxSafetyInputSpan bits, which
   /// validate_register_map() requires). False on failure (counted; a broken link is
@@ -49,7 +49,7 @@ class PowerBoard final : public PowerLink {
   /// response timeout).
   bool read_safety_inputs(SafetyInputBits* out) override;
   /// Writes the motor-power relay coil (one transaction).
-  bool set_motor_power(bool on, std::string* error) override;
+  bool set_motor_power(bool on, PowerFault* fault) override;
   const PowerCounters& counters() const override { return counters_; }
 
  private:

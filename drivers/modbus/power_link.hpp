@@ -3,18 +3,31 @@
 // may hand the executive another (a simulation, a test double).
 #pragma once
 
+#include <cstddef>
+#include <cstdio>
 #include <string>
 
 #include "drivers/modbus/power_state.hpp"
 
 namespace cairn::modbus {
 
+/// Why a power-board transaction failed, in static text: the I/O thread that reports it
+/// allocates nothing. `what` names the transaction, `detail` the cause (libmodbus' text
+/// for errno, which points at static storage).
+struct PowerFault {
+  const char* what = "";
+  const char* detail = "";
+  /// "what: detail" into `out` (truncated to its size); for messages and snapshots.
+  void format(char* out, std::size_t size) const { std::snprintf(out, size, "%s: %s", what, detail); }
+  std::string text() const { return std::string(what) + ": " + detail; }
+};
+
 class PowerLink {
  public:
   virtual ~PowerLink() = default;
   /// Reads the battery values (not the e-stop: that is the fast path's). False with a
   /// reason on failure (counted).
-  virtual bool poll(PowerState* out, std::string* error) = 0;
+  virtual bool poll(PowerState* out, PowerFault* fault) = 0;
   /// The e-stop fast path: the e-stop and reset inputs in one short transaction. False on
   /// failure (counted); every call is bounded by the link's response timeout.
   virtual bool read_safety_inputs(SafetyInputBits* out) = 0;
@@ -23,7 +36,7 @@ class PowerLink {
     SafetyInputBits b;
     return read_safety_inputs(&b) ? (b.estop ? 1 : 0) : -1;
   }
-  virtual bool set_motor_power(bool on, std::string* error) = 0;
+  virtual bool set_motor_power(bool on, PowerFault* fault) = 0;
   virtual const PowerCounters& counters() const = 0;
 };
 

@@ -180,8 +180,7 @@ void Executive::power_thread() {
   rt_reports_[2] = "power: " + apply_rt(cfg_.io_threads);
   Clock& clock = clock_;
   modbus::PowerLink& power = *dev_.power;
-  std::string err;
-  err.reserve(256);  // failure messages reuse this buffer
+  modbus::PowerFault fault;
   modbus::PowerState ps;
   DeviceSnapshot d;
   copy_text(&d.name, "power");
@@ -210,17 +209,21 @@ void Executive::power_thread() {
     const Nanos now = clock.now();
     const bool want = motor_power_want_.load(std::memory_order_acquire) && !estop_.load(std::memory_order_acquire);
     if (relay != (want ? 1 : 0)) {
-      relay = power.set_motor_power(want, &err) ? (want ? 1 : 0) : -1;
+      relay = power.set_motor_power(want, &fault) ? (want ? 1 : 0) : -1;
     } else if (now >= next_poll) {
       next_poll = now + cfg_.power_poll;
-      poll_ok = power.poll(&ps, &err);
+      poll_ok = power.poll(&ps, &fault);
       if (poll_ok) power_state_.write(ps);
     }
     if (now >= next_snapshot) {
       next_snapshot = now + 100 * kNanosPerMilli;
       const auto& c = power.counters();
       d.state = poll_ok ? 1 : 0;
-      copy_text(&d.reason, poll_ok ? (relay == 1 ? "ok, motor power on" : "ok, motor power off") : err.c_str());
+      if (poll_ok) {
+        copy_text(&d.reason, relay == 1 ? "ok, motor power on" : "ok, motor power off");
+      } else {
+        fault.format(d.reason.data(), d.reason.size());
+      }
       d.frames = static_cast<std::uint32_t>(c.polls + c.input_reads);
       d.timeouts = static_cast<std::uint32_t>(c.timeouts);
       d.recoveries = static_cast<std::uint32_t>(c.reconnects);

@@ -30,20 +30,20 @@ std::unique_ptr<modbus::PowerBoard> open_board(const std::string& uri) {
 
 void check_readings_and_relay(hil::PowerEmulator& emu, modbus::PowerBoard& board) {
   modbus::PowerState s;
-  std::string err;
-  ASSERT_TRUE(board.poll(&s, &err)) << err;
+  modbus::PowerFault err;
+  ASSERT_TRUE(board.poll(&s, &err)) << err.text();
   EXPECT_NEAR(s.soc, 90.0, 0.2);
   EXPECT_NEAR(s.voltage, 23.0 + 4.2 * 0.9 - 1.2 * 0.05, 0.02);
   EXPECT_NEAR(s.current, 1.2, 0.01);
   EXPECT_FALSE(s.estop);
   EXPECT_EQ(emu.relay_writes(), 0u);
   const Nanos before_on = MonotonicClock::instance().now();
-  ASSERT_TRUE(board.set_motor_power(true, &err)) << err;
+  ASSERT_TRUE(board.set_motor_power(true, &err)) << err.text();
   EXPECT_TRUE(emu.motor_relay());
   EXPECT_EQ(emu.relay_writes(), 1u);  // the emulator records every write to the relay coil
   EXPECT_GT(emu.relay_on_written_at(), before_on);
   EXPECT_EQ(emu.relay_off_written_at(), 0);
-  ASSERT_TRUE(board.poll(&s, &err)) << err;
+  ASSERT_TRUE(board.poll(&s, &err)) << err.text();
   EXPECT_NEAR(s.current, 5.2, 0.01);
   // The reset input, read with the e-stop in one transaction.
   modbus::SafetyInputBits bits;
@@ -104,8 +104,9 @@ TEST(PowerBoard, ErrorsAreClearAndCounted) {
   auto board = modbus::PowerBoard::open(emu.uri(), wrong, 100 * kNanosPerMilli, &err);
   ASSERT_TRUE(board) << err;
   modbus::PowerState s;
-  EXPECT_FALSE(board->poll(&s, &err));
-  EXPECT_NE(err.find("Illegal data address"), std::string::npos) << err;
+  modbus::PowerFault fault;
+  EXPECT_FALSE(board->poll(&s, &fault));
+  EXPECT_EQ(fault.text(), "reading input registers: Illegal data address");
   EXPECT_EQ(board->counters().errors, 1u);
   // Implausible values are rejected by the decoder.
   const std::uint16_t regs[4] = {60000, 0, 500, 300};
@@ -169,7 +170,8 @@ TEST(PowerBoard, RegisterMapSpanningMoreThanOneReadIsRefused) {
   auto board = modbus::PowerBoard::open(emu.uri(), edge, 100 * kNanosPerMilli, &err);
   ASSERT_TRUE(board) << err;
   modbus::PowerState s;
-  EXPECT_TRUE(board->poll(&s, &err)) << err;
+  modbus::PowerFault fault;
+  EXPECT_TRUE(board->poll(&s, &fault)) << fault.text();
   EXPECT_NEAR(s.soc, 90.0, 0.2);
 }
 
