@@ -61,6 +61,8 @@ struct RobotsOptions {
   std::vector<std::string> faults;
   double duration = 0, report_period = 5.0;
   bool lms_tcp = false;
+  std::string can_iface, lms_uart, lms_host_uri;
+  std::uint32_t lms_uart_baud = 38400;
 };
 
 int run_robots(const RobotsOptions& o) {
@@ -73,6 +75,10 @@ int run_robots(const RobotsOptions& o) {
   cfg.robot_template = o.robot_template;
   cfg.out_dir = o.out_dir;
   cfg.lms_tcp = o.lms_tcp;
+  cfg.can_iface = o.can_iface;
+  cfg.lms_uart = o.lms_uart;
+  cfg.lms_host_uri = o.lms_host_uri;
+  cfg.lms_uart_baud = o.lms_uart_baud;
   for (const std::string& f : o.faults) cfg.faults.push_back(hil::ScheduledFault::parse(f));
   hil::FleetBench fleet(world, cfg);
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> truth(nullptr, &std::fclose);
@@ -158,6 +164,12 @@ int main(int argc, char** argv) {
   robots->add_option("--duration", ro.duration, "stop after this many seconds (0 = until SIGINT/SIGTERM)");
   robots->add_option("--report", ro.report_period, "seconds between ground-truth progress lines")->capture_default_str();
   robots->add_flag("--lms-tcp", ro.lms_tcp, "serve the lasers on 127.0.0.1 TCP ports instead of ptys");
+  // The VM bench's real devices (scripts/vm-bench.sh): one robot.
+  robots->add_option("--can-iface", ro.can_iface, "the drives on this SocketCAN interface (e.g. vcan0) instead of a user-space bus; one robot");
+  robots->add_option("--lms-uart", ro.lms_uart, "serve the laser on this serial port (e.g. /dev/ttyS2); one robot; needs --lms-host-uri");
+  robots->add_option("--lms-host-uri", ro.lms_host_uri, "with --lms-uart: what the robot opens, the other end of the cable (e.g. serial:/dev/ttyS1)");
+  robots->add_option("--lms-baud", ro.lms_uart_baud, "with --lms-uart: the laser's line rate")
+      ->check(CLI::IsMember({9600, 19200, 38400}))->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   install_shutdown_handlers();
   return run_program("cairn-hil", [&] {

@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds with warnings as errors, and runs the whole
-# test suite; then builds with ASan+UBSan and with TSan and runs the tests again;
+# test suite; then the VM bench (the production SocketCAN and UART paths on Debian's
+# kernel under qemu); then builds with ASan+UBSan and with TSan and runs the tests again;
 # then cross-builds the robot side for aarch64 and armhf and runs its tests under qemu-user.
-#   scripts/test.sh [--quick]   (--quick: skip the sanitizer, fuzz and cross passes)
+#   scripts/test.sh [--quick]   (--quick: skip the VM, sanitizer, fuzz and cross passes)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 quick=0
 [[ ${1:-} == --quick ]] && quick=1
 
-scripts/setup-deps.sh
+if ((quick)); then scripts/setup-deps.sh; else scripts/setup-deps.sh --vm; fi
 export CYCLONEDDS_URI="file://$PWD/config/dds/loopback.xml"   # every DDS program stays on loopback
 start=$(date +%s)
 stage() { echo "== test: $* (at $(( $(date +%s) - start )) s)"; }   # elapsed per stage: where CI's time goes
@@ -19,6 +20,8 @@ stage "full suite"
 ctest --preset ci -j2
 
 if ((quick == 0)); then
+  stage "VM bench: the HIL checks over SocketCAN (vcan0) and a 16550 UART (libserialport), Debian's kernel under qemu"
+  scripts/vm-bench.sh --build build/ci
   stage "build (asan preset: ASan + UBSan, -Werror)"
   scripts/build.sh asan
   stage "unit and integration tests under ASan + UBSan"

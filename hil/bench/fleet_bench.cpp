@@ -50,6 +50,12 @@ ScheduledFault ScheduledFault::parse(const std::string& text) {
 
 FleetBench::FleetBench(const World& world, const FleetBenchConfig& cfg) : world_(world), cfg_(cfg) {
   if (cfg.robots.empty()) throw std::runtime_error("HIL fleet: no robots");
+  if ((!cfg.can_iface.empty() || !cfg.lms_uart.empty()) && cfg.robots.size() != 1) {
+    throw std::runtime_error("HIL fleet: a SocketCAN interface or a UART serves one robot, not " + std::to_string(cfg.robots.size()));
+  }
+  if (cfg.lms_uart.empty() != cfg.lms_host_uri.empty()) {
+    throw std::runtime_error("HIL fleet: a laser UART needs the URI of its other end, and only then (--lms-uart with --lms-host-uri)");
+  }
   for (int id : cfg.robots) {
     const auto start = world.start(id);
     if (!start) throw std::runtime_error("HIL fleet: world " + world.name() + " has no 'start " + std::to_string(id) + " X Y THETA' line");
@@ -57,6 +63,10 @@ FleetBench::FleetBench(const World& world, const FleetBenchConfig& cfg) : world_
     bc.robot_id = id;
     bc.start = *start;
     bc.lms_tcp = cfg.lms_tcp;
+    bc.can_iface = cfg.can_iface;
+    bc.lms_uart = cfg.lms_uart;
+    bc.lms_host_uri = cfg.lms_host_uri;
+    bc.lms_uart_baud = cfg.lms_uart_baud;
     benches_.push_back(std::make_unique<RobotBench>(world, bc));
   }
   for (const ScheduledFault& f : cfg.faults) {
@@ -106,6 +116,7 @@ std::vector<std::string> FleetBench::write_robot_configs() const {
     dev.insert_or_assign("lms", benches_[i]->lms_uri());
     dev.insert_or_assign("can", benches_[i]->can_uri());
     dev.insert_or_assign("power", benches_[i]->power_uri());
+    if (!cfg_.lms_uart.empty()) dev.insert_or_assign("lms_baud", static_cast<std::int64_t>(cfg_.lms_uart_baud));
     const auto route = local_route(i);
     if (!route.empty()) {
       toml::array wp;

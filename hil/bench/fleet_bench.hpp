@@ -31,6 +31,9 @@ struct FleetBenchConfig {
   std::string robot_template;         // robot TOML whose robot/devices/motion are filled in
   std::string out_dir;                // where robot-<id>.toml is written
   bool lms_tcp = false;
+  // The VM bench's real devices, for a fleet of one (RobotBenchConfig says what they are).
+  std::string can_iface, lms_uart, lms_host_uri;
+  std::uint32_t lms_uart_baud = 38400;
   std::vector<ScheduledFault> faults;
 };
 

@@ -4,6 +4,8 @@
 
 #include <stdexcept>
 
+#include "drivers/can/socketcan_port.hpp"
+
 namespace cairn::hil {
 
 RobotBench::RobotBench(const World& world, const RobotBenchConfig& cfg)
@@ -11,10 +13,15 @@ RobotBench::RobotBench(const World& world, const RobotBenchConfig& cfg)
   const std::string path = cfg.bus_path.empty()
                                ? "/tmp/cairn-hil-can-" + std::to_string(getpid()) + "-" + std::to_string(cfg.robot_id)
                                : cfg.bus_path;
-  hub_ = std::make_unique<can::Hub>(path);
+  if (cfg.can_iface.empty()) hub_ = std::make_unique<can::Hub>(path);
   std::string err;
   for (std::uint8_t node : {cfg.left_node, cfg.right_node}) {
-    auto port = can::UcanPort::open(path, static_cast<std::uint16_t>(100 + node), false, &err);
+    std::unique_ptr<can::Port> port;
+    if (cfg.can_iface.empty()) {
+      port = can::UcanPort::open(path, static_cast<std::uint16_t>(100 + node), false, &err);
+    } else {
+      port = can::SocketCanPort::open(cfg.can_iface, {}, &err);
+    }
     if (!port) throw std::runtime_error("HIL bench: drive " + std::to_string(node) + ": " + err);
     DriveConfig dc;
     dc.node = node;
@@ -25,12 +32,20 @@ RobotBench::RobotBench(const World& world, const RobotBenchConfig& cfg)
   robot_->set_wheel_scale(cfg.wheel_scale_left, cfg.wheel_scale_right);
   truth_.pose = cfg.start;
   LmsDeviceConfig lms = cfg.lms;
-  if (cfg.lms_tcp) lms.power_on_baud = cfg.lms_tcp_baud;
-  lms_ = std::make_unique<LmsServer>(cfg.lms_tcp ? LmsServer::Link::kTcp : LmsServer::Link::kPty, lms, &sensor_world_,
+  if (!cfg.lms_uart.empty()) {
+    lms.power_on_baud = cfg.lms_uart_baud;
+  } else if (cfg.lms_tcp) {
+    lms.power_on_baud = cfg.lms_tcp_baud;
+  }
+  const LmsServer::Link link = !cfg.lms_uart.empty() ? LmsServer::Link::kUart
+                               : cfg.lms_tcp           ? LmsServer::Link::kTcp
+                                                       : LmsServer::Link::kPty;
+  lms_ = std::make_unique<LmsServer>(link, lms, &sensor_world_,
                                      [this](Nanos) {
                                        std::lock_guard l(mutex_);
                                        return compose(truth_.pose, cfg_.laser_mount);
-                                     });
+                                     },
+                                     0, cfg.lms_uart);
 }
 
 RobotBench::~RobotBench() { stop(); }

@@ -33,6 +33,15 @@ struct RobotBenchConfig {
   std::uint32_t lms_tcp_baud = 500000;        // TCP: the device server's fixed line rate, which
                                               // the laser is permanently set to
   std::uint8_t left_node = 1, right_node = 2;
+  // The VM bench's real devices (scripts/vm-bench.sh): the drives on a SocketCAN interface
+  // instead of the user-space hub, and the laser on a UART whose other end (lms_host_uri,
+  // e.g. serial:/dev/ttyS1) the robot opens. Empty: the hub and a pty (or TCP).
+  std::string can_iface;
+  // qemu's UARTs pass bytes whatever rates the two ends are set to, so a rate mismatch
+  // cannot be emulated there (the pty can): the laser sits at lms_uart_baud from power-on,
+  // as it does at lms_tcp_baud on a device server.
+  std::string lms_uart, lms_host_uri;
+  std::uint32_t lms_uart_baud = 38400;
 };
 
 struct TruthSample {
@@ -48,14 +57,13 @@ class RobotBench {
   void start();
   void stop();
 
-  std::string lms_uri() const { return lms_->uri(); }
-  std::string can_uri() const { return hub_->uri(); }
+  std::string lms_uri() const { return cfg_.lms_uart.empty() ? lms_->uri() : cfg_.lms_host_uri; }
+  std::string can_uri() const { return hub_ ? hub_->uri() : "socketcan:" + cfg_.can_iface; }
   std::string power_uri() const { return power_->uri(); }
 
   TruthSample truth() const;
   LmsServer& lms() { return *lms_; }
   PowerEmulator& power() { return *power_; }
-  can::Hub& hub() { return *hub_; }
   DriveRunner& drive(int i) { return *drives_[static_cast<std::size_t>(i)]; }
 
  private:

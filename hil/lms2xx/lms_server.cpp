@@ -28,11 +28,34 @@ std::uint32_t baud_of_speed(speed_t s) {
     default: return 0;
   }
 }
+speed_t speed_of_baud(std::uint32_t baud) {
+  switch (baud) {
+    case 9600: return B9600;
+    case 19200: return B19200;
+    case 38400: return B38400;
+    case 57600: return B57600;
+    case 115200: return B115200;
+    case 500000: return B500000;
+    default: return B0;
+  }
+}
 }  // namespace
 
-LmsServer::LmsServer(Link link, LmsDeviceConfig cfg, const World* world, LmsDevice::PoseSource pose, int tcp_port)
+LmsServer::LmsServer(Link link, LmsDeviceConfig cfg, const World* world, LmsDevice::PoseSource pose, int tcp_port,
+                     const std::string& uart)
     : link_(link), device_(std::make_unique<LmsDevice>(std::move(cfg), world, std::move(pose))) {
-  if (link == Link::kPty) {
+  if (link == Link::kUart) {
+    fd_ = ::open(uart.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+    termios t{};
+    if (fd_ < 0 || tcgetattr(fd_, &t) != 0) {
+      throw std::runtime_error("lms server: cannot open the UART " + uart + ": " + std::strerror(errno));
+    }
+    cfmakeraw(&t);
+    t.c_cflag |= CLOCAL | CREAD;
+    t.c_cflag &= ~static_cast<tcflag_t>(CRTSCTS);
+    tcsetattr(fd_, TCSANOW, &t);
+    uri_ = "tty:" + uart;
+  } else if (link == Link::kPty) {
     int slave = -1;
     char name[128];
     if (openpty(&fd_, &slave, name, nullptr, nullptr) != 0) throw std::runtime_error(std::string("openpty: ") + std::strerror(errno));
@@ -66,6 +89,9 @@ LmsServer::LmsServer(Link link, LmsDeviceConfig cfg, const World* world, LmsDevi
 
 LmsServer::~LmsServer() {
   stop();
+  // A UART's close waits (up to the port's closing_wait, 30 s) for unsent bytes to drain,
+  // and with nobody reading at the other end they never do: drop them.
+  if (link_ == Link::kUart && fd_ >= 0) tcflush(fd_, TCIOFLUSH);
   if (fd_ >= 0) ::close(fd_);
   if (listen_fd_ >= 0) ::close(listen_fd_);
 }
@@ -110,6 +136,13 @@ void LmsServer::serve_once(Nanos now) {
     tx_credit_time_ = now;
   }
   std::uint32_t host = device_->baud();
+  if (link_ == Link::kUart && uart_baud_ != host) {
+    // The device switched its rate (or just booted): its UART follows, once per change.
+    uart_baud_ = host;
+    termios t{};
+    const speed_t s = speed_of_baud(host);
+    if (s == B0 || tcgetattr(fd_, &t) != 0 || cfsetspeed(&t, s) != 0 || tcsetattr(fd_, TCSANOW, &t) != 0) uart_refused_ = host;
+  }
   if (link_ == Link::kPty && fd_ >= 0) {
     termios t{};
     if (tcgetattr(fd_, &t) == 0) host = baud_of_speed(cfgetispeed(&t));
@@ -162,7 +195,7 @@ void LmsServer::serve_once(Nanos now) {
   was_busy_ = true;
   tx_credit_time_ += static_cast<Nanos>(static_cast<double>(budget) / bytes_per_ns);
   if (unplugged_ || fd_ < 0) return;  // bytes go nowhere
-  // A full pty buffer drops bytes, as a UART overrun would; a TCP client that went away is
+  // A full pty or UART buffer drops bytes, as a UART overrun would; a TCP client that went away is
   // noticed by the next read (MSG_NOSIGNAL: no SIGPIPE for the process the bench runs in).
   // Stamped before the write: a host reader woken by it can preempt this thread before
   // the write returns, so a stamp taken after would come after the host's reaction.
