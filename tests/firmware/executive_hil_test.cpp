@@ -343,11 +343,16 @@ TEST_F(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
   if (rt_granted && realtime) {
     const bool attributable = witness && witness->granted() && witness->dropped() == 0;
     EXPECT_TRUE(attributable) << "the stall witness was not granted SCHED_FIFO 81 on CPU " << rt_cpu << " or lost stalls";
+    // The period's 99th percentile within 20 % of the period (seen: 10,060-10,240 us): the
+    // platform's stalls reach a few dozen of the ~5,800 cycles, not 1 % of them; a loop
+    // that overran its period by 2 ms in 1 % of its cycles fails.
+    const Nanos period_ns = firmware::ExecutiveConfig{}.period;
+    EXPECT_LE(static_cast<double>(snap.period_p99_us), 1.2 * nanos_to_seconds(period_ns) * 1e6) << "p99 of the RT period";
     if (!attributable) {
       EXPECT_EQ(snap.misses, 0u) << "deadline misses with SCHED_FIFO";
     } else {
       EXPECT_LE(snap.misses, snap.first_misses.size()) << "more deadline misses than the log holds";
-      const Nanos period = firmware::ExecutiveConfig{}.period;  // the harness keeps the default
+      const Nanos period = period_ns;  // the harness keeps the default
       for (std::size_t i = 0; i < std::min(static_cast<std::size_t>(snap.misses), snap.first_misses.size()); ++i) {
         const auto& m = snap.first_misses[i];
         std::size_t stalls = 0;

@@ -261,10 +261,9 @@ TEST(RobotProcess, DrivesItsRouteThroughTheRealDriversWithFaultsAndTheBaseFollow
   EXPECT_TRUE(reasons.count(4)) << "laser loss never published as a stop";
   EXPECT_TRUE(reasons.count(2)) << "drive loss never published as a stop";
   EXPECT_EQ(last.stop_reason, 0) << "not recovered: " << last.stop_text;
-  // Deadline misses are reported, not asserted: the bench runs SCHED_OTHER beside the
-  // emulators (and under sanitizers); RT timing is measured by cairn-bench-robot-latency.
-  std::printf("RT loop: p99 period %.0f us, max jitter %.0f us, %u deadline misses\n",
-              static_cast<double>(last.loop_period_p99_us), static_cast<double>(last.loop_jitter_max_us), last.deadline_misses);
+  // RT timing is not this test's subject (the robot runs SCHED_OTHER beside the emulators,
+  // and under sanitizers): executive_hil_test asserts it with the production scheduling
+  // (deadline misses, p99 period), cairn-bench-robot-latency the scan's latency.
   EXPECT_EQ(last.n_devices, 4);
 
   ASSERT_TRUE(have_corr) << "no PoseCorrection from the base\n" << base.output();
