@@ -166,10 +166,14 @@ int main(int argc, char** argv) {
   robots->add_flag("--lms-tcp", ro.lms_tcp, "serve the lasers on 127.0.0.1 TCP ports instead of ptys");
   // The VM bench's real devices (scripts/vm-bench.sh): one robot.
   robots->add_option("--can-iface", ro.can_iface, "the drives on this SocketCAN interface (e.g. vcan0) instead of a user-space bus; one robot");
-  robots->add_option("--lms-uart", ro.lms_uart, "serve the laser on this serial port (e.g. /dev/ttyS2); one robot; needs --lms-host-uri");
-  robots->add_option("--lms-host-uri", ro.lms_host_uri, "with --lms-uart: what the robot opens, the other end of the cable (e.g. serial:/dev/ttyS1)");
-  robots->add_option("--lms-baud", ro.lms_uart_baud, "with --lms-uart: the laser's line rate")
-      ->check(CLI::IsMember({9600, 19200, 38400}))->capture_default_str();
+  auto* uart = robots->add_option("--lms-uart", ro.lms_uart, "serve the laser on this serial port (e.g. /dev/ttyS2); one robot");
+  auto* host = robots->add_option("--lms-host-uri", ro.lms_host_uri, "what the robot opens, the other end of the cable (e.g. serial:/dev/ttyS1)");
+  auto* baud = robots->add_option("--lms-baud", ro.lms_uart_baud, "the laser's line rate on its UART")
+                   ->check(CLI::IsMember({9600, 19200, 38400}))->capture_default_str();
+  uart->needs(host);
+  host->needs(uart);
+  baud->needs(uart);
+  uart->excludes("--lms-tcp");
   CLI11_PARSE(app, argc, argv);
   install_shutdown_handlers();
   return run_program("cairn-hil", [&] {

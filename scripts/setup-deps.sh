@@ -18,10 +18,11 @@ core=(
   libsystemd-dev dpkg-dev openssh-client openssh-server
 )
 extra=()
+vm_kernel=0
 for arg in "$@"; do
   case "$arg" in
     --peers) extra+=(libmrpt-dev) ;;
-    --vm) extra+=(qemu-system-x86 linux-image-amd64 busybox-static kmod cpio iproute2) ;;
+    --vm) extra+=(qemu-system-x86 busybox-static cpio); vm_kernel=1 ;;
     --cross) extra+=(g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user qemu-user-static) ;;
     -h|--help) sed -n '2,9p' "$0"; exit 0 ;;
     *) echo "setup-deps: unknown option '$arg' (try --help)" >&2; exit 2 ;;
@@ -30,3 +31,7 @@ done
 
 source "$(dirname "$0")/lib/apt.sh"
 apt_install_missing setup-deps "${core[@]}" "${extra[@]}"
+if ((vm_kernel)); then
+  source "$(dirname "$0")/lib/vm-kernel.sh"
+  fetch_vm_kernel "$(cd "$(dirname "$0")/.." && pwd)/build/vm-kernel"
+fi

@@ -183,7 +183,7 @@ bool UcanPort::connect_hub(std::string* error) {
   const sockaddr_un hub = unix_address(path_, &hlen);
   if (::bind(fd_, reinterpret_cast<const sockaddr*>(&self), len) != 0 ||
       ::connect(fd_, reinterpret_cast<const sockaddr*>(&hub), hlen) != 0) {
-    *error = "ucan:" + path_ + ": no CAN hub there (" + std::strerror(errno) + "); is the HIL bench running?";
+    if (error) *error = "ucan:" + path_ + ": no CAN hub there (" + std::strerror(errno) + "); is the HIL bench running?";
     ::close(fd_);
     fd_ = -1;
     return false;

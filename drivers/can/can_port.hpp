@@ -53,7 +53,8 @@ class Port {
   virtual bool receive(Frame* f, Nanos timeout) = 0;
   virtual const BusStats& stats() const = 0;
   virtual bool bus_off() const = 0;
-  /// Recovers from bus-off / a down interface; false with a reason.
+  /// Recovers from bus-off / a down interface; false with a reason in `error`. `error`
+  /// may be null: an I/O thread after start-up passes null and nothing is allocated.
   virtual bool restart(std::string* error) = 0;
   virtual std::string describe() const = 0;
 };

@@ -17,6 +17,10 @@ namespace cairn::can {
 
 std::unique_ptr<SocketCanPort> SocketCanPort::open(const std::string& iface, const std::vector<Filter>& filters,
                                                    std::string* error) {
+  if (filters.size() > kMaxFilters) {
+    *error = "interface " + iface + ": " + std::to_string(filters.size()) + " filters, at most " + std::to_string(kMaxFilters);
+    return nullptr;
+  }
   std::unique_ptr<SocketCanPort> p(new SocketCanPort(iface, filters));
   if (!p->open_socket(error)) return nullptr;
   return p;
@@ -31,9 +35,11 @@ bool SocketCanPort::open_socket(std::string* error) {
   fd_ = ::socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC | SOCK_NONBLOCK, CAN_RAW);
   if (fd_ < 0) {
     if (errno == EAFNOSUPPORT || errno == EPROTONOSUPPORT) {
-      *error = "interface " + iface_ + ": this kernel has no SocketCAN support (socket(PF_CAN): " + std::strerror(errno) +
-               "); use the VM bench, or a user-space bus (ucan:PATH)";
-    } else {
+      if (error) {
+        *error = "interface " + iface_ + ": this kernel has no SocketCAN support (socket(PF_CAN): " + std::strerror(errno) +
+                 "); use the VM bench, or a user-space bus (ucan:PATH)";
+      }
+    } else if (error) {
       *error = "interface " + iface_ + ": socket(PF_CAN): " + std::strerror(errno);
     }
     return false;
@@ -41,14 +47,14 @@ bool SocketCanPort::open_socket(std::string* error) {
   ifreq ifr{};
   std::strncpy(ifr.ifr_name, iface_.c_str(), IFNAMSIZ - 1);
   if (::ioctl(fd_, SIOCGIFINDEX, &ifr) != 0) {
-    *error = "interface " + iface_ + ": no such CAN interface (" + std::strerror(errno) + ")";
+    if (error) *error = "interface " + iface_ + ": no such CAN interface (" + std::strerror(errno) + ")";
     ::close(fd_);
     fd_ = -1;
     return false;
   }
-  std::vector<can_filter> f;
-  for (const Filter& x : filters_) f.push_back({x.id, x.mask});
-  if (!f.empty()) setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_FILTER, f.data(), static_cast<socklen_t>(f.size() * sizeof(can_filter)));
+  can_filter f[kMaxFilters];  // on the stack: a restart on the CAN thread allocates nothing
+  for (std::size_t i = 0; i < filters_.size(); ++i) f[i] = {filters_[i].id, filters_[i].mask};
+  if (!filters_.empty()) setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_FILTER, f, static_cast<socklen_t>(filters_.size() * sizeof(can_filter)));
   const can_err_mask_t err_mask = CAN_ERR_MASK;  // every error class arrives as an error frame
   setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask);
   const int one = 1;
@@ -57,7 +63,7 @@ bool SocketCanPort::open_socket(std::string* error) {
   addr.can_family = AF_CAN;
   addr.can_ifindex = ifr.ifr_ifindex;
   if (::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    *error = "interface " + iface_ + ": bind: " + std::strerror(errno);
+    if (error) *error = "interface " + iface_ + ": bind: " + std::strerror(errno);
     ::close(fd_);
     fd_ = -1;
     return false;

@@ -14,6 +14,9 @@ struct Filter {
 
 class SocketCanPort final : public Port {
  public:
+  static constexpr std::size_t kMaxFilters = 16;
+  /// Nullptr and a message on failure (no such interface, no SocketCAN in this kernel,
+  /// more than kMaxFilters filters).
   static std::unique_ptr<SocketCanPort> open(const std::string& iface, const std::vector<Filter>& filters, std::string* error);
   ~SocketCanPort() override;
   SendResult send(const Frame& f, Nanos deadline) override;

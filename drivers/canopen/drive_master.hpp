@@ -79,6 +79,8 @@ class DriveMaster {
   const TransitionEvent& event(std::size_t i) const;
   std::uint64_t syncs() const { return syncs_; }
   std::uint64_t recoveries() const { return recoveries_; }
+  /// Bus-off restarts of the port that failed (each retried after recovery_backoff).
+  std::uint64_t restart_failures() const { return restart_failures_; }
 
  private:
   struct Node {
@@ -106,7 +108,7 @@ class DriveMaster {
   std::array<Node, kMaxDrives> nodes_;
   std::size_t count_ = 0;
   Nanos next_sync_ = 0;
-  std::uint64_t syncs_ = 0, recoveries_ = 0;
+  std::uint64_t syncs_ = 0, recoveries_ = 0, restart_failures_ = 0;
   bool disabled_ = false;
   std::atomic<bool> estop_request_{false};
   Nanos bus_retry_at_ = 0;

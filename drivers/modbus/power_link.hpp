@@ -11,15 +11,18 @@
 
 namespace cairn::modbus {
 
-/// Why a power-board transaction failed, in static text: the I/O thread that reports it
-/// allocates nothing. `what` names the transaction, `detail` the cause (libmodbus' text
-/// for errno, which points at static storage).
+/// Why a power-board transaction failed, without building a string: the I/O thread that
+/// reports it allocates nothing. `what` names the transaction (static text), `detail` the
+/// cause: libmodbus' text for errno, which is glibc's strerror (static for every errno
+/// the C library knows; valid on this thread until its next strerror call otherwise).
 struct PowerFault {
-  const char* what = "";
+  const char* what = "no transaction yet";
   const char* detail = "";
-  /// "what: detail" into `out` (truncated to its size); for messages and snapshots.
-  void format(char* out, std::size_t size) const { std::snprintf(out, size, "%s: %s", what, detail); }
-  std::string text() const { return std::string(what) + ": " + detail; }
+  /// "what: detail" (or "what") into `out`, truncated to its size; for snapshots.
+  void format(char* out, std::size_t size) const {
+    std::snprintf(out, size, *detail ? "%s: %s" : "%s%s", what, detail);
+  }
+  std::string text() const { return *detail ? std::string(what) + ": " + detail : std::string(what); }
 };
 
 class PowerLink {

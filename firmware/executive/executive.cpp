@@ -156,7 +156,7 @@ void Executive::can_thread() {
         d[i].state = static_cast<std::uint8_t>(master_->phase(i));
         copy_text(&d[i].reason, canopen::phase_name(master_->phase(i)));
         d[i].frames = static_cast<std::uint32_t>(master_->feedback(i).updates);
-        d[i].recoveries = static_cast<std::uint32_t>(master_->recoveries());
+        d[i].recoveries = static_cast<std::uint32_t>(master_->recoveries() + bus.restarts);  // fault resets, bus restarts
         d[i].errors = static_cast<std::uint32_t>(bus.error_frames + bus.bus_off);
         d[i].timeouts = static_cast<std::uint32_t>(master_->last_emcy(i));
         device_box_[1 + i].write(d[i]);
@@ -180,7 +180,7 @@ void Executive::power_thread() {
   rt_reports_[2] = "power: " + apply_rt(cfg_.io_threads);
   Clock& clock = clock_;
   modbus::PowerLink& power = *dev_.power;
-  modbus::PowerFault fault;
+  modbus::PowerFault poll_fault, relay_fault;
   modbus::PowerState ps;
   DeviceSnapshot d;
   copy_text(&d.name, "power");
@@ -205,24 +205,28 @@ void Executive::power_thread() {
       if (in.reset && !last_reset) reset_requests_.fetch_add(1, std::memory_order_acq_rel);  // the button's rising edge
       last_reset = in.reset;
     }  // a failed read is counted by the link; no good read for power_timeout stops and latches (RT loop)
-    // 2. At most one other transaction: the motor relay when it must change, else the poll.
+    // 2. At most one other transaction: the motor relay when it must change, else the
+    // poll. A relay write that keeps failing (a silent board) does not starve a poll.
     const Nanos now = clock.now();
     const bool want = motor_power_want_.load(std::memory_order_acquire) && !estop_.load(std::memory_order_acquire);
-    if (relay != (want ? 1 : 0)) {
-      relay = power.set_motor_power(want, &fault) ? (want ? 1 : 0) : -1;
-    } else if (now >= next_poll) {
+    const bool poll_due = now >= next_poll;
+    if (relay != (want ? 1 : 0) && !(relay == -1 && poll_due)) {
+      relay = power.set_motor_power(want, &relay_fault) ? (want ? 1 : 0) : -1;
+    } else if (poll_due) {
       next_poll = now + cfg_.power_poll;
-      poll_ok = power.poll(&ps, &fault);
+      poll_ok = power.poll(&ps, &poll_fault);
       if (poll_ok) power_state_.write(ps);
     }
     if (now >= next_snapshot) {
       next_snapshot = now + 100 * kNanosPerMilli;
       const auto& c = power.counters();
-      d.state = poll_ok ? 1 : 0;
-      if (poll_ok) {
-        copy_text(&d.reason, relay == 1 ? "ok, motor power on" : "ok, motor power off");
+      d.state = poll_ok && relay != -1 ? 1 : 0;
+      if (!poll_ok) {
+        poll_fault.format(d.reason.data(), d.reason.size());
+      } else if (relay == -1) {
+        relay_fault.format(d.reason.data(), d.reason.size());
       } else {
-        fault.format(d.reason.data(), d.reason.size());
+        copy_text(&d.reason, relay == 1 ? "ok, motor power on" : "ok, motor power off");
       }
       d.frames = static_cast<std::uint32_t>(c.polls + c.input_reads);
       d.timeouts = static_cast<std::uint32_t>(c.timeouts);

@@ -50,7 +50,7 @@ bool SimDriveBus::receive(can::Frame* f, Nanos timeout) {
 
 bool SimDriveBus::restart(std::string* error) {
   if (clock_->now() < hold_until_) {
-    *error = "bus-off persists";
+    if (error) *error = "bus-off persists";
     return false;
   }
   bus_off_ = false;

@@ -47,13 +47,18 @@ LmsServer::LmsServer(Link link, LmsDeviceConfig cfg, const World* world, LmsDevi
   if (link == Link::kUart) {
     fd_ = ::open(uart.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
     termios t{};
-    if (fd_ < 0 || tcgetattr(fd_, &t) != 0) {
-      throw std::runtime_error("lms server: cannot open the UART " + uart + ": " + std::strerror(errno));
+    bool ok = fd_ >= 0 && tcgetattr(fd_, &t) == 0;
+    if (ok) {
+      cfmakeraw(&t);
+      t.c_cflag |= CLOCAL | CREAD;
+      t.c_cflag &= ~static_cast<tcflag_t>(CRTSCTS);
+      ok = tcsetattr(fd_, TCSANOW, &t) == 0;
     }
-    cfmakeraw(&t);
-    t.c_cflag |= CLOCAL | CREAD;
-    t.c_cflag &= ~static_cast<tcflag_t>(CRTSCTS);
-    tcsetattr(fd_, TCSANOW, &t);
+    if (!ok) {
+      const int e = errno;
+      if (fd_ >= 0) ::close(fd_);
+      throw std::runtime_error("lms server: cannot open the UART " + uart + " raw: " + std::strerror(e));
+    }
     uri_ = "tty:" + uart;
   } else if (link == Link::kPty) {
     int slave = -1;

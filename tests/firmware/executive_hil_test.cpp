@@ -71,6 +71,10 @@ const char* vm_env(const char* name) {
   return v && *v ? v : nullptr;
 }
 bool on_vm_bench() { return vm_env("CAIRN_VM_CAN") != nullptr; }
+std::uint32_t vm_lms_baud() {
+  const char* baud = vm_env("CAIRN_VM_LMS_BAUD");
+  return baud ? static_cast<std::uint32_t>(std::atol(baud)) : 38400;
+}
 
 // The laser on a pty where it carries 500 kBd, else (under qemu-user) on TCP; on the VM
 // bench the production backends.
@@ -79,7 +83,7 @@ hil::RobotBenchConfig laser_link(hil::RobotBenchConfig bc) {
     bc.can_iface = vm_env("CAIRN_VM_CAN");
     bc.lms_uart = vm_env("CAIRN_VM_LMS_UART") ? vm_env("CAIRN_VM_LMS_UART") : "/dev/ttyS2";
     bc.lms_host_uri = vm_env("CAIRN_VM_LMS_URI") ? vm_env("CAIRN_VM_LMS_URI") : "serial:/dev/ttyS1";
-    if (const char* baud = vm_env("CAIRN_VM_LMS_BAUD")) bc.lms_uart_baud = static_cast<std::uint32_t>(std::atol(baud));
+    bc.lms_uart_baud = vm_lms_baud();
     std::printf("VM bench: drives on socketcan:%s, laser on %s (emulator on %s)\n", bc.can_iface.c_str(),
                 bc.lms_host_uri.c_str(), bc.lms_uart.c_str());
     return bc;
@@ -142,7 +146,7 @@ struct Harness {
     cfg.can_uri = bench.can_uri();
     cfg.power_uri = bench.power_uri();
     cfg.laser_mount = bc.laser_mount;
-    if (const char* baud = vm_env("CAIRN_VM_LMS_BAUD")) cfg.lms.target_baud = static_cast<std::uint32_t>(std::atol(baud));
+    if (on_vm_bench()) cfg.lms.target_baud = vm_lms_baud();  // the rate the laser sits at there
     cfg.safety.max_v = 1.0;
     cfg.safety.power_timeout = static_cast<Nanos>(static_cast<double>(cfg.safety.power_timeout) * stale_scale);
     cfg.safety.feedback_timeout = static_cast<Nanos>(static_cast<double>(cfg.safety.feedback_timeout) * stale_scale);
@@ -238,7 +242,7 @@ class ExecutiveHil : public ::testing::Test {
   }
   void TearDown() override {
 #ifndef CAIRN_SANITIZED
-    if (IsSkipped()) return;
+    if (IsSkipped() || HasFatalFailure()) return;  // no Harness, or one that never ran
     EXPECT_EQ(g_counted_threads.load(), 5);
     EXPECT_EQ(g_allocations.load(), 0u) << "heap allocations on the RT and I/O threads after start-up";
 #endif
@@ -299,6 +303,9 @@ TEST_F(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
     odometer = h.bench.truth().odometer;
     snap = h.exec->rt_snapshot();
     EXPECT_EQ(h.out_of_order, 0u);
+    if (on_vm_bench()) {
+      EXPECT_EQ(h.bench.lms().uart_baud_refused(), 0u) << "the laser's UART refused its rate";
+    }
     // One increment per scan, every 10th scan sent on: at 500 kBd the laser gives 75 scans
     // a second over the ~55 s drive; on the VM bench's 38400 Bd UART a 361-beam telegram
     // takes 0.19 s, about 5 a second.
@@ -493,6 +500,13 @@ TEST_F(ExecutiveHil, EstopLatchesTorqueOffWithin20msAndOnlyAResetRestarts) {
   EXPECT_EQ(h.exec->rt_snapshot().resets_accepted, 6u);
 }
 
+// The power thread's snapshot reason ("ok, ..." or the failed transaction).
+std::string power_reason(Harness& h) {
+  std::array<firmware::DeviceSnapshot, 4> d;
+  h.exec->devices(&d);
+  return d[3].reason.data();
+}
+
 // The fixture's allocation check covers these failure paths: a failed battery poll and
 // relay write while the board is silent, a silent drive, a hung CAN port.
 TEST_F(ExecutiveHil, StaleInputsStopWithinTheirBounds) {
@@ -517,8 +531,10 @@ TEST_F(ExecutiveHil, StaleInputsStopWithinTheirBounds) {
   ASSERT_GT(off, 0);
   const double silent_ms = ms_of(off - t0);
   EXPECT_GT(h.run_until([&] { return reason() == StopReason::kPowerLost; }, 1.0, &follower), 0);
-  // Silent for longer than the battery poll's period: a poll and a relay write fail too.
-  h.run_until([] { return false; }, nanos_to_seconds(firmware::ExecutiveConfig{}.power_poll) + 0.1, &follower);
+  // Silent for longer than the battery poll's period: a poll fails too (the power thread's
+  // snapshot names the failed transaction until a poll succeeds), as do relay writes.
+  h.run_until([] { return false; }, nanos_to_seconds(firmware::ExecutiveConfig{}.power_poll) + 0.2, &follower);
+  EXPECT_EQ(power_reason(h).rfind("reading input registers", 0), 0u) << "no failed poll while silent: " << power_reason(h);
   board.set_silent(false);
   EXPECT_GT(h.run_until([&] { return reason() == StopReason::kResetRequired; }, 2.0, &follower), 0);
   expect_stays_stopped(h, &follower, 0.5, StopReason::kResetRequired);
@@ -630,11 +646,16 @@ bool set_link(const std::string& iface, bool up) {
   if (fd >= 0) ::close(fd);
   return ok;
 }
-std::uint32_t can_errors(Harness& h) {
+firmware::DeviceSnapshot can_device(Harness& h) {
   std::array<firmware::DeviceSnapshot, 4> d;
   h.exec->devices(&d);
-  return d[1].errors;
+  return d[1];
 }
+// Brings the interface back up when a test ends early with it down: the tests after it share it.
+struct LinkUpAtExit {
+  std::string iface;
+  ~LinkUpAtExit() { set_link(iface, true); }
+};
 
 // On the VM bench only, where the CAN interface is a real kernel's: the interface goes
 // down and comes back, then the controller reports bus-off. Down, the wheels stop within
@@ -658,6 +679,7 @@ TEST_F(ExecutiveHil, SocketCanLinkDownAndBusOffStopAndRecover) {
 
   ASSERT_GT(h.run_until(moving, 5.0, &follower), 0);
   h.run_until([] { return false; }, 0.2, &follower);
+  const LinkUpAtExit link_up{iface};
   const Nanos t0 = now_ns();
   ASSERT_TRUE(set_link(iface, false));
   const Nanos stop_at = wait_recorded([&] { return stopped() ? now_ns() : Nanos{0}; }, t0, kNanosPerSecond);
@@ -671,7 +693,7 @@ TEST_F(ExecutiveHil, SocketCanLinkDownAndBusOffStopAndRecover) {
   EXPECT_FALSE(h.exec->rt_snapshot().latched);
 
   h.run_until([] { return false; }, 0.5, &follower);
-  const std::uint32_t errors = can_errors(h);
+  const firmware::DeviceSnapshot before = can_device(h);
   const std::uint64_t stops = h.exec->rt_snapshot().stops;
   ASSERT_TRUE(inject_bus_off(iface));
   h.run_until([] { return false; }, 0.3, &follower);  // the next device snapshot
@@ -680,9 +702,12 @@ TEST_F(ExecutiveHil, SocketCanLinkDownAndBusOffStopAndRecover) {
   std::printf("%s down: stopped after %.1f ms (%s; bound %.0f ms), moving %.2f s after it came up; bus-off: %llu stop(s), "
               "moving again %.2f s later\n", iface.c_str(), down_ms, firmware::stop_reason_text(down_reason), bound_ms, up_s,
               static_cast<unsigned long long>(stops_after - stops), back_s + 0.3);
+  EXPECT_EQ(down_reason, StopReason::kFeedbackStale);
   EXPECT_LE(down_ms, bound_ms);
   EXPECT_GT(up_s, 0) << "did not drive on after the interface came up";
-  EXPECT_GT(can_errors(h), errors) << "the bus-off error frame was not counted";
+  const firmware::DeviceSnapshot after = can_device(h);
+  EXPECT_GT(after.errors, before.errors) << "the bus-off error frame was not counted";
+  EXPECT_GT(after.recoveries, before.recoveries) << "the port was not restarted after bus-off";
   EXPECT_GT(stops_after, stops) << "bus-off: the drives were not re-enabled (no stop while they were)";
   EXPECT_GT(back_s, 0) << "did not drive on after the bus-off restart";
   EXPECT_FALSE(h.exec->rt_snapshot().latched);
