@@ -57,6 +57,10 @@ class Port {
   /// may be null: an I/O thread after start-up passes null and nothing is allocated.
   virtual bool restart(std::string* error) = 0;
   virtual std::string describe() const = 0;
+  /// The caller has nothing to do on this port until `until` (monotonic): the CANopen
+  /// master's throttle under a flood of frames. A real port sleeps on the monotonic clock,
+  /// which its own deadlines use; a simulated bus moves its simulated time instead.
+  virtual void pause(Nanos until) { MonotonicClock::instance().sleep_until(until); }
 };
 
 /// Opens "socketcan:IFACE" or "ucan:PATH"; nullptr and a clear message on failure

@@ -34,20 +34,18 @@ DriveMaster::DriveMaster(can::Port* port, Clock* clock, const MasterConfig& cfg)
   next_sync_ = now + cfg_.sync_period;
 }
 
-const TransitionEvent& DriveMaster::event(std::size_t i) const {
-  const std::size_t first = events_total_ > events_.size() ? events_total_ - events_.size() : 0;
-  return events_[(first + i) % events_.size()];
-}
+const TransitionEvent& DriveMaster::event(std::size_t i) const { return events_[i]; }
 
 void DriveMaster::set_phase(Node& n, NodePhase p, const char* reason) {
   if (n.phase == p) return;
   n.phase = p;
   n.phase_since = clock_->now();
-  TransitionEvent& e = events_[events_total_++ % events_.size()];
+  TransitionEvent e;
   e.time = n.phase_since;
   e.node = n.id;
   e.to = p;
   std::snprintf(e.reason.data(), e.reason.size(), "%s", reason);
+  events_.push(e);  // full: the oldest goes
 }
 
 void DriveMaster::send(const can::Frame& f) {
@@ -291,6 +289,13 @@ void DriveMaster::step() {
     }
   }
   if (estop_request_.exchange(false, std::memory_order_acq_rel)) disable_all("e-stop");
+  // A flood (a babbling node, a bus full of foreign traffic) never runs out of frames, so
+  // the waits above never wait: after a full step's worth the thread sleeps out the rest of
+  // its slice (the frames beyond wait in the socket, or overflow it and are counted).
+  if (drained >= kMaxFramesPerStep) {
+    ++floods_;
+    port_->pause(std::min(now + cfg_.io_slice, next_sync_));
+  }
   now = clock_->now();
   for (std::size_t i = 0; i < count_; ++i) supervise(nodes_[i], now);
   if (now >= next_sync_) {

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <span>
 
+#include "common/ring_buffer.hpp"
 #include "drivers/can/can_port.hpp"
 #include "drivers/canopen/cia402.hpp"
 #include "drivers/canopen/sdo_client.hpp"
@@ -75,12 +76,14 @@ class DriveMaster {
   std::int32_t commanded(std::size_t slot) const { return nodes_[slot].sent_velocity; }
   std::uint16_t last_emcy(std::size_t slot) const { return nodes_[slot].last_emcy; }
   /// Transitions, oldest first (a fixed ring of the last 64).
-  std::size_t event_count() const { return events_total_ < events_.size() ? events_total_ : events_.size(); }
+  std::size_t event_count() const { return events_.size(); }
   const TransitionEvent& event(std::size_t i) const;
   std::uint64_t syncs() const { return syncs_; }
   std::uint64_t recoveries() const { return recoveries_; }
   /// Bus-off restarts of the port that failed (each retried after recovery_backoff).
   std::uint64_t restart_failures() const { return restart_failures_; }
+  /// Steps that found a full kMaxFramesPerStep frames waiting and slept out their slice.
+  std::uint64_t floods() const { return floods_; }
 
  private:
   struct Node {
@@ -108,12 +111,11 @@ class DriveMaster {
   std::array<Node, kMaxDrives> nodes_;
   std::size_t count_ = 0;
   Nanos next_sync_ = 0;
-  std::uint64_t syncs_ = 0, recoveries_ = 0, restart_failures_ = 0;
+  std::uint64_t syncs_ = 0, recoveries_ = 0, restart_failures_ = 0, floods_ = 0;
   bool disabled_ = false;
   std::atomic<bool> estop_request_{false};
   Nanos bus_retry_at_ = 0;
-  std::array<TransitionEvent, 64> events_{};
-  std::size_t events_total_ = 0;
+  RingBuffer<TransitionEvent> events_{64, WhenFull::kOverwriteOldest};
 };
 
 }  // namespace cairn::canopen

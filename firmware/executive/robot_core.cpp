@@ -13,7 +13,7 @@ RobotCore::RobotCore(const ExecutiveConfig& cfg)
       mapper_(cfg.localmap),
       odometry_(cfg.geometry, cfg.odometry),
       safety_(cfg.safety),
-      steps_(std::make_unique<TimedStep[]>(std::max<std::size_t>(cfg.odometry_history, 1))),
+      steps_(std::max<std::size_t>(cfg.odometry_history, 1)),
       points_(std::make_unique<Vec2[]>(lms::kMaxBeams)),
       laser_msg_(std::make_unique<msg::LaserScan>()),
       feature_msg_(std::make_unique<msg::FeatureObservations>()) {
@@ -27,14 +27,9 @@ void RobotCore::on_wheels(const WheelReading& ws) {
   if (ws.stamp == last_wheel_stamp_) return;
   const Nanos t0 = last_wheel_stamp_ < 0 ? ws.stamp : last_wheel_stamp_;
   last_wheel_stamp_ = ws.stamp;
-  const std::size_t cap = history();
-  if (steps_count_ == cap) {  // full: the oldest step joins the folded prefix
-    accumulate(&folded_, steps_[steps_head_].step);
-    steps_head_ = (steps_head_ + 1) % cap;
-    --steps_count_;
-  }
-  steps_[(steps_head_ + steps_count_) % cap] = {t0, ws.stamp, odometry_.update(ws.left, ws.right)};
-  ++steps_count_;
+  TimedStep oldest;
+  if (steps_.full() && steps_.pop(&oldest)) accumulate(&folded_, oldest.step);  // joins the folded prefix
+  steps_.push({t0, ws.stamp, odometry_.update(ws.left, ws.right)});
 }
 
 canopen::WheelCommand RobotCore::control(const ControlInputs& c, double dt) {
@@ -67,18 +62,14 @@ Pose2 RobotCore::local_pose() const { return compose(mapper_.pose(), odometry_pe
 CoreCounters RobotCore::counters() const { return {mapper_.counters().scans, mapper_.counters().matched}; }
 
 OdometryStep RobotCore::odometry_until(Nanos t) {
-  const std::size_t cap = history();
   OdometryStep out = folded_;
   folded_ = OdometryStep{};
-  while (steps_count_ > 0 && steps_[steps_head_].t <= t) {
-    accumulate(&out, steps_[steps_head_].step);
-    steps_head_ = (steps_head_ + 1) % cap;
-    --steps_count_;
-  }
+  TimedStep done;
+  while (!steps_.empty() && steps_.oldest().t <= t && steps_.pop(&done)) accumulate(&out, done.step);
   // A wheel sample that spans t (several merged when the RT loop woke late): take the part
   // of its arc before t, leave the rest queued.
-  if (steps_count_ > 0) {
-    TimedStep& s = steps_[steps_head_];
+  if (!steps_.empty()) {
+    TimedStep& s = steps_.oldest();
     if (s.t0 < t && s.t > s.t0) {
       const double f = static_cast<double>(t - s.t0) / static_cast<double>(s.t - s.t0);
       OdometryStep head, tail;
@@ -92,9 +83,8 @@ OdometryStep RobotCore::odometry_until(Nanos t) {
 }
 
 OdometryStep RobotCore::odometry_pending() const {
-  const std::size_t cap = history();
   OdometryStep out = folded_;
-  for (std::size_t i = 0; i < steps_count_; ++i) accumulate(&out, steps_[(steps_head_ + i) % cap].step);
+  for (std::size_t i = 0; i < steps_.size(); ++i) accumulate(&out, steps_[i].step);
   return out;
 }
 

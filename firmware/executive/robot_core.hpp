@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "common/messages.hpp"
+#include "common/ring_buffer.hpp"
 #include "firmware/executive/executive_config.hpp"
 
 namespace cairn::firmware {
@@ -80,7 +81,6 @@ class RobotCore {
   };
   OdometryStep odometry_until(Nanos t);
   OdometryStep odometry_pending() const;
-  std::size_t history() const { return std::max<std::size_t>(cfg_.odometry_history, 1); }
 
   ExecutiveConfig cfg_;
   localmap::LocalMapper mapper_;
@@ -89,8 +89,7 @@ class RobotCore {
   // Wheel odometry since the last scan: steps older than the ring folded into `folded_`,
   // then the ring (oldest first). A scan takes the steps up to its own time.
   OdometryStep folded_;
-  std::unique_ptr<TimedStep[]> steps_;
-  std::size_t steps_head_ = 0, steps_count_ = 0;
+  RingBuffer<TimedStep> steps_;  // full: the caller folds the oldest first
   Nanos last_wheel_stamp_ = -1;
   bool drives_enabled_ = false;
   Nanos last_feedback_ = -1, last_can_pass_ = -1;

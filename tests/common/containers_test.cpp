@@ -5,7 +5,6 @@
 #include <chrono>
 #include <thread>
 
-#include "common/arena.hpp"
 #include "common/fixed_vector.hpp"
 #include "common/latest_box.hpp"
 #include "common/ring_buffer.hpp"
@@ -171,24 +170,6 @@ TEST(LatestBox, ReaderSeesNewestAndNeverTorn) {
   EXPECT_EQ(backwards, 0u);
   EXPECT_GT(fresh, 0u);
   EXPECT_EQ(shared.writes(), kWrites);
-}
-
-TEST(Arena, HandsOutAlignedMemoryUntilSealed) {
-  Arena arena(1024);
-  auto* d = arena.make_array<double>(10);
-  ASSERT_NE(d, nullptr);
-  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(d) % alignof(double), 0u);
-  EXPECT_EQ(d[9], 0.0);
-  auto* c = arena.make<char>('x');
-  ASSERT_NE(c, nullptr);
-  auto* i = arena.make<std::uint64_t>(5u);
-  ASSERT_NE(i, nullptr);
-  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(i) % alignof(std::uint64_t), 0u);
-  EXPECT_EQ(arena.make_array<char>(4096), nullptr);  // exhausted
-  EXPECT_EQ(arena.refused(), 1u);
-  arena.seal();
-  EXPECT_EQ(arena.make<int>(1), nullptr);
-  EXPECT_EQ(arena.refused(), 2u);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <deque>
+#include <functional>
 #include <vector>
 
 namespace cairn::canopen {
@@ -27,7 +28,11 @@ class ScriptedPort final : public can::Port {
   bool bus_off() const override { return false; }
   bool restart(std::string*) override { return true; }
   std::string describe() const override { return "scripted"; }
+  void pause(Nanos until) override {
+    if (on_pause) on_pause(until);
+  }
 
+  std::function<void(Nanos)> on_pause;
   std::deque<can::Frame> inbox;
   std::vector<can::Frame> sent;
 
@@ -108,6 +113,50 @@ TEST(DriveMaster, ExtendedOrRemoteHeartbeatIdDoesNotStartConfiguration) {
   clock.advance(kNanosPerMilli);
   m.step();
   EXPECT_EQ(m.phase(0), NodePhase::kConfigure);
+}
+
+// A clock whose sleeps return at once, moving its time to the deadline: it records how long
+// the thread would have slept.
+class SteppingClock final : public Clock {
+ public:
+  explicit SteppingClock(Nanos start) : now_(start) {}
+  Nanos now() const override { return now_; }
+  void sleep_until(Nanos deadline) override {
+    if (deadline > now_) slept += deadline - now_, now_ = deadline;
+  }
+  void advance(Nanos dt) { now_ += dt; }
+  Nanos slept = 0;
+
+ private:
+  Nanos now_;
+};
+
+// A bus flooded with frames (here another device's PDOs, far more than a step handles): the
+// CAN thread must still sleep, most of each slice, instead of spinning on the flood; and
+// it still sends its SYNCs.
+TEST(DriveMaster, AFloodOfFramesDoesNotKeepTheCanThreadAwake) {
+  SteppingClock clock(kNanosPerSecond);
+  ScriptedPort port;
+  MasterConfig cfg;
+  cfg.nodes = {1, 0, 0, 0};
+  DriveMaster m(&port, &clock, cfg);
+  port.on_pause = [&](Nanos until) { clock.sleep_until(until); };
+  can::Frame junk;
+  junk.id = 0x18A;  // node 10's TPDO1: not ours
+  junk.len = 8;
+  for (int i = 0; i < 100 * kMaxFramesPerStep; ++i) port.inbox.push_back(junk);
+  const Nanos t0 = clock.now();
+  for (int i = 0; i < 100; ++i) {
+    clock.advance(10 * kNanosPerMicro);  // the step's own work
+    m.step();
+  }
+  EXPECT_TRUE(port.inbox.empty());
+  EXPECT_EQ(m.floods(), 100u);
+  // Every step slept out its slice (or to the next SYNC): at least half the time asleep.
+  EXPECT_GT(clock.slept, (clock.now() - t0) / 2) << "slept " << clock.slept << " ns of " << clock.now() - t0;
+  std::size_t syncs = 0;
+  for (const can::Frame& f : port.sent) syncs += f.id == kCobSync;
+  EXPECT_GE(static_cast<Nanos>(syncs) + 1, (clock.now() - t0) / cfg.sync_period) << "SYNCs missed under the flood";
 }
 
 }  // namespace

@@ -114,6 +114,7 @@ class HangablePort final : public can::Port {
   bool bus_off() const override { return inner_->bus_off(); }
   bool restart(std::string* error) override { return inner_->restart(error); }
   std::string describe() const override { return inner_->describe(); }
+  void pause(Nanos until) override { inner_->pause(until); }
 
  private:
   void wait() {
