@@ -16,8 +16,10 @@ Nanos seconds_key(const ConfigSection& s, const char* key, Nanos fallback, Range
 void read_devices(const ConfigSection& d, ExecutiveConfig* e) {
   e->lms_uri = d.string("lms");
   const auto baud = d.integer_or("lms_baud", e->lms.target_baud, {9600, 500000});
-  if (baud != 9600 && baud != 19200 && baud != 38400 && baud != 500000) {
-    d.fail("lms_baud", "expected one of 9600, 19200, 38400, 500000 (the LMS2xx's rates), got " + std::to_string(baud));
+  if (!lms::valid_baud(static_cast<std::uint32_t>(baud))) {
+    std::string rates;
+    for (std::uint32_t b : lms::kBauds) rates += (rates.empty() ? "" : ", ") + std::to_string(b);
+    d.fail("lms_baud", "expected one of " + rates + " (the LMS2xx's rates), got " + std::to_string(baud));
   }
   e->lms.target_baud = static_cast<std::uint32_t>(baud);
   e->lms.angle_deg = static_cast<std::uint16_t>(d.integer_or("lms_angle_deg", e->lms.angle_deg, {100, 180}));
@@ -25,7 +27,9 @@ void read_devices(const ConfigSection& d, ExecutiveConfig* e) {
   const double res = d.number_or("lms_resolution_deg", e->lms.resolution_centideg / 100.0, {0.25, 1.0});
   const int centi = static_cast<int>(std::lround(res * 100));
   if (centi != 25 && centi != 50 && centi != 100) d.fail("lms_resolution_deg", "expected 1, 0.5 or 0.25");
-  if (centi == 25 && e->lms.angle_deg != 100) d.fail("lms_resolution_deg", "0.25 deg needs lms_angle_deg = 100");
+  if (!lms::valid_variant(e->lms.angle_deg, static_cast<std::uint16_t>(centi))) {
+    d.fail("lms_resolution_deg", "0.25 deg needs lms_angle_deg = 100");  // the one variant the angle check leaves
+  }
   e->lms.resolution_centideg = static_cast<std::uint16_t>(centi);
   e->can_uri = d.string("can");
   if (d.has("drive_nodes")) {

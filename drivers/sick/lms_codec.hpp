@@ -65,6 +65,19 @@ std::optional<std::uint8_t> baud_code(std::uint32_t baud);
 /// The baud rate for a 0x20 mode byte, or 0.
 std::uint32_t baud_of_code(std::uint8_t code);
 inline constexpr std::array<std::uint32_t, 4> kBauds = {9600, 19200, 38400, 500000};
+/// One of the line rates an LMS2xx can switch to (kBauds).
+constexpr bool valid_baud(std::uint32_t baud) {
+  for (std::uint32_t b : kBauds) {
+    if (b == baud) return true;
+  }
+  return false;
+}
+/// The scanning variants an LMS2xx offers (0x3B): a 100 deg field at 1, 0.5 or 0.25 deg,
+/// a 180 deg field at 1 or 0.5 deg. One rule for the driver's config, the emulator and tools.
+constexpr bool valid_variant(std::uint16_t angle_deg, std::uint16_t res_centideg) {
+  return (angle_deg == 100 && (res_centideg == 100 || res_centideg == 50 || res_centideg == 25)) ||
+         (angle_deg == 180 && (res_centideg == 100 || res_centideg == 50));
+}
 
 /// A telegram as bytes (fixed buffer).
 struct Frame {

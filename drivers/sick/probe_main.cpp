@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
+#include <vector>
 
 #include "common/program.hpp"
 #include "drivers/serial/byte_stream.hpp"
@@ -97,10 +98,10 @@ int main(int argc, char** argv) {
   int baud = 9600, target = 500000, resolution = 50, scans = 10;
   double rate = 0, timeout = 10;
   app.add_option("-u,--uri", uri, "serial:/dev/ttyUSB0, tty:/dev/pts/N or tcp:HOST:PORT")->required();
-  app.add_option("--baud", baud, "host baud rate to open with (the driver searches all four anyway)")
-      ->check(CLI::IsMember({9600, 19200, 38400, 500000}));
+  const std::vector<std::uint32_t> rates(lms::kBauds.begin(), lms::kBauds.end());
+  app.add_option("--baud", baud, "host baud rate to open with (the driver searches all four anyway)")->check(CLI::IsMember(rates));
   app.add_option("--target-baud", target, "baud rate to switch the scanner to (38400 for RS-232 adapters)")
-      ->check(CLI::IsMember({9600, 19200, 38400, 500000}));
+      ->check(CLI::IsMember(rates));
   app.add_option("--resolution", resolution, "angular resolution in 1/100 degree: 100, 50 or 25")->check(CLI::IsMember({100, 50, 25}));
   app.add_option("-n,--scans", scans, "print this many scans, then exit")->check(CLI::PositiveNumber);
   app.add_option("--rate", rate, "instead of printing scans, measure the scan rate over this many seconds");

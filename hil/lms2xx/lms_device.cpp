@@ -109,7 +109,7 @@ void LmsDevice::handle(const Telegram& t, Nanos now) {
       if (ok) {
         angle = static_cast<std::uint16_t>(t.data[0] | (t.data[1] << 8));
         res = static_cast<std::uint16_t>(t.data[2] | (t.data[3] << 8));
-        ok = (angle == 100 && (res == 100 || res == 50 || res == 25)) || (angle == 180 && (res == 100 || res == 50));
+        ok = valid_variant(angle, res);
       }
       if (ok) {
         angle_ = angle;
