@@ -288,14 +288,15 @@ void DriveMaster::step() {
       if (++drained >= kMaxFramesPerStep || clock_->now() >= until) break;
     }
   }
-  if (estop_request_.exchange(false, std::memory_order_acq_rel)) disable_all("e-stop");
   // A flood (a babbling node, a bus full of foreign traffic) never runs out of frames, so
   // the waits above never wait: after a full step's worth the thread sleeps out the rest of
-  // its slice (the frames beyond wait in the socket, or overflow it and are counted).
-  if (drained >= kMaxFramesPerStep) {
+  // its slice (the frames beyond wait in the socket, or overflow it and are counted). Not
+  // with an e-stop request waiting, which is acted on below, after the pause.
+  if (drained >= kMaxFramesPerStep && !estop_request_.load(std::memory_order_acquire)) {
     ++floods_;
     port_->pause(std::min(now + cfg_.io_slice, next_sync_));
   }
+  if (estop_request_.exchange(false, std::memory_order_acq_rel)) disable_all("e-stop");
   now = clock_->now();
   for (std::size_t i = 0; i < count_; ++i) supervise(nodes_[i], now);
   if (now >= next_sync_) {

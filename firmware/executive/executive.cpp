@@ -187,7 +187,8 @@ void Executive::power_thread() {
   if (hooks_.steady) hooks_.steady("power");
   Nanos next_cycle = clock.now(), next_poll = 0, next_snapshot = 0;
   bool last_reset = false, poll_ok = false;
-  int relay = -1;  // what the relay coil was last written to (-1: unknown / the write failed)
+  int relay = -1;        // what the relay coil was last written to (-1: unknown / the write failed)
+  int last_target = -1;  // what the last write tried to set
   while (running_.load(std::memory_order_relaxed)) {
     // 1. The fast path.
     modbus::SafetyInputBits in;
@@ -206,12 +207,16 @@ void Executive::power_thread() {
       last_reset = in.reset;
     }  // a failed read is counted by the link; no good read for power_timeout stops and latches (RT loop)
     // 2. At most one other transaction: the motor relay when it must change, else the
-    // poll. A relay write that keeps failing (a silent board) does not starve a poll.
+    // poll. A retry of a write that failed (a silent board) gives way to a due poll, so it
+    // cannot starve the poll; a new target (off on an e-stop) always goes first.
     const Nanos now = clock.now();
     const bool want = motor_power_want_.load(std::memory_order_acquire) && !estop_.load(std::memory_order_acquire);
+    const int target = want ? 1 : 0;
     const bool poll_due = now >= next_poll;
-    if (relay != (want ? 1 : 0) && !(relay == -1 && poll_due)) {
-      relay = power.set_motor_power(want, &relay_fault) ? (want ? 1 : 0) : -1;
+    const bool retry = relay == -1 && last_target == target;
+    if (relay != target && !(retry && poll_due)) {
+      last_target = target;
+      relay = power.set_motor_power(want, &relay_fault) ? target : -1;
     } else if (poll_due) {
       next_poll = now + cfg_.power_poll;
       poll_ok = power.poll(&ps, &poll_fault);

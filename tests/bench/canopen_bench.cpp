@@ -71,6 +71,7 @@ class DirectBus : public can::Port {
   bool bus_off() const override { return false; }
   bool restart(std::string*) override { return true; }
   std::string describe() const override { return "direct"; }
+  void pause(Nanos until) override { clock_->set(until); }  // simulated time, not the machine's
 
  private:
   std::vector<hil::DriveNode>* nodes_;
