@@ -14,9 +14,7 @@
 
 namespace cairn::serial {
 
-namespace {
-
-speed_t speed_of(std::uint32_t baud) {
+speed_t termios_speed(std::uint32_t baud) {
   switch (baud) {
     case 9600: return B9600;
     case 19200: return B19200;
@@ -24,11 +22,9 @@ speed_t speed_of(std::uint32_t baud) {
     case 57600: return B57600;
     case 115200: return B115200;
     case 500000: return B500000;
-    default: return 0;
+    default: return B0;
   }
 }
-
-}  // namespace
 
 IoResult fd_read(int fd, std::span<std::uint8_t> buffer, Nanos timeout) {
   if (fd < 0) return {IoResult::Status::kClosed, 0, EBADF};
@@ -94,7 +90,7 @@ bool TtyStream::open_fd(std::string* error) {
 }
 
 bool TtyStream::set_baud(std::uint32_t baud, std::string* error) {
-  const speed_t sp = speed_of(baud);
+  const speed_t sp = termios_speed(baud);
   if (!sp) {
     *error = "tty:" + path_ + ": unsupported baud rate " + std::to_string(baud);
     return false;

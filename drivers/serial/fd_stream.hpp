@@ -1,6 +1,8 @@
 // Byte streams over file descriptors: termios ttys/ptys and TCP sockets.
 #pragma once
 
+#include <termios.h>
+
 #include "drivers/serial/byte_stream.hpp"
 
 namespace cairn::serial {
@@ -49,6 +51,9 @@ class TcpStream final : public ByteStream {
   std::uint32_t baud_;
   int fd_ = -1;
 };
+
+/// The termios speed for a baud rate (B0 for one termios cannot name).
+speed_t termios_speed(std::uint32_t baud);
 
 /// Shared poll-based I/O on a non-blocking fd.
 IoResult fd_read(int fd, std::span<std::uint8_t> buffer, Nanos timeout);

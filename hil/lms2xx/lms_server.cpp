@@ -14,6 +14,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "drivers/serial/fd_stream.hpp"
+
 namespace cairn::hil {
 
 namespace {
@@ -26,17 +28,6 @@ std::uint32_t baud_of_speed(speed_t s) {
     case B115200: return 115200;
     case B500000: return 500000;
     default: return 0;
-  }
-}
-speed_t speed_of_baud(std::uint32_t baud) {
-  switch (baud) {
-    case 9600: return B9600;
-    case 19200: return B19200;
-    case 38400: return B38400;
-    case 57600: return B57600;
-    case 115200: return B115200;
-    case 500000: return B500000;
-    default: return B0;
   }
 }
 }  // namespace
@@ -145,7 +136,7 @@ void LmsServer::serve_once(Nanos now) {
     // The device switched its rate (or just booted): its UART follows, once per change.
     uart_baud_ = host;
     termios t{};
-    const speed_t s = speed_of_baud(host);
+    const speed_t s = serial::termios_speed(host);
     if (s == B0 || tcgetattr(fd_, &t) != 0 || cfsetspeed(&t, s) != 0 || tcsetattr(fd_, TCSANOW, &t) != 0) uart_refused_ = host;
   }
   if (link_ == Link::kPty && fd_ >= 0) {
