@@ -351,11 +351,21 @@ TEST_F(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
   if (rt_granted && realtime) {
     const bool attributable = witness && witness->granted() && witness->dropped() == 0;
     EXPECT_TRUE(attributable) << "the stall witness was not granted SCHED_FIFO 81 on CPU " << rt_cpu << " or lost stalls";
-    // The period's 99th percentile within 20 % of the period (seen: 10,060-10,240 us): the
-    // platform's stalls reach a few dozen of the ~5,800 cycles, not 1 % of them; a loop
-    // that overran its period by 2 ms in 1 % of its cycles fails.
+    // The period's 99th percentile within 20 % of the period (seen: 10,060-10,240 us): a
+    // loop that overran its period by 2 ms in 1 % of its cycles fails. That holds while the
+    // platform's own stalls of more than 2 ms (the witness's) touch under 0.5 % of the
+    // cycles (usually a few dozen of ~5,800); a hypervisor that takes the CPU for that long
+    // more often than that (one noisy run here: 7,095 stalls, 4.2 s of 58 s) moves the p99
+    // by itself, and then only the attributed deadline-miss check below applies.
     const Nanos period_ns = firmware::ExecutiveConfig{}.period;
-    EXPECT_LE(static_cast<double>(snap.period_p99_us), 1.2 * nanos_to_seconds(period_ns) * 1e6) << "p99 of the RT period";
+    const std::size_t long_stalls = attributable ? witness->longer_than(period_ns / 5) : 0;
+    std::printf("platform stalls of the RT CPU longer than 2 ms: %zu\n", long_stalls);
+    if (long_stalls * 200 < snap.cycles) {
+      EXPECT_LE(static_cast<double>(snap.period_p99_us), 1.2 * nanos_to_seconds(period_ns) * 1e6) << "p99 of the RT period";
+    } else {
+      std::printf("p99 of the RT period not checked: the platform stalled the RT CPU > 2 ms %zu times in %llu cycles\n",
+                  long_stalls, static_cast<unsigned long long>(snap.cycles));
+    }
     if (!attributable) {
       EXPECT_EQ(snap.misses, 0u) << "deadline misses with SCHED_FIFO";
     } else {
