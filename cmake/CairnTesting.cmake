@@ -14,6 +14,18 @@ function(cairn_add_test)
   cairn_warnings(${T_NAME})
   cairn_unoptimized_when_sanitized(${T_NAME})
   cairn_layer(${T_NAME} tests)
+  # `single-threaded`: the code under test starts no thread. TSan has nothing to find there,
+  # so the TSan build neither builds nor runs it (it stays a target: later properties and
+  # dependencies still apply). Elsewhere (not under the sanitizers, which hook thread
+  # creation themselves) the guard fails the test if it starts a thread after all.
+  if("single-threaded" IN_LIST T_LABELS)
+    if(CAIRN_SANITIZE STREQUAL "thread")
+      set_target_properties(${T_NAME} PROPERTIES EXCLUDE_FROM_ALL TRUE)
+      return()
+    elseif(NOT CAIRN_SANITIZE)
+      target_sources(${T_NAME} PRIVATE ${PROJECT_SOURCE_DIR}/tests/support/single_threaded_guard.cpp)
+    endif()
+  endif()
   if(NOT T_TIMEOUT)
     set(T_TIMEOUT 120)
   endif()

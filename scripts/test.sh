@@ -27,12 +27,12 @@ if ((quick == 0)); then
   stage "unit and integration tests under ASan + UBSan"
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --preset asan -j2 -LE 'bench|slow|packaging|layers'
-  stage "build (tsan preset: ThreadSanitizer, -Werror)"
+  stage "build (tsan preset: ThreadSanitizer, -Werror; the tests labelled single-threaded, which start no thread, are not built)"
   scripts/build.sh tsan
-  stage "unit and integration tests under TSan (not those labelled single-threaded)"
+  stage "unit and integration tests under TSan"
   TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1" ctest --preset tsan -j2 -LE 'bench|slow|packaging|layers|single-threaded'
-  stage "fuzz targets (clang libFuzzer + ASan/UBSan), 30 s each"
-  scripts/fuzz.sh 30
+  stage "fuzz targets (clang libFuzzer + ASan/UBSan), 15 s each (longer: scripts/fuzz.sh SECONDS)"
+  scripts/fuzz.sh 15
   stage "cross-build the robot side for aarch64 (-Werror); its tests and package under qemu-user"
   scripts/build-cross.sh aarch64 --test
   stage "cross-build the robot side for armhf (-Werror, sysroot); its tests and package under qemu-user"
