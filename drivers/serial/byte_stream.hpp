@@ -7,7 +7,7 @@
 //   tcp:HOST:PORT           raw TCP; the device server's baud is fixed (set out of band)
 //
 // Reads and writes take a timeout and never block longer; after construction nothing
-// allocates (the I/O thread calls them in its loop).
+// allocates (the I/O thread calls them in its loop); neither do set_baud() and reopen().
 #pragma once
 
 #include <cstddef>
@@ -17,6 +17,7 @@
 #include <string>
 
 #include "common/clock.hpp"
+#include "common/io_error.hpp"
 
 namespace cairn::serial {
 
@@ -35,14 +36,15 @@ class ByteStream {
   virtual IoResult read(std::span<std::uint8_t> buffer, Nanos timeout) = 0;
   /// Writes everything, waiting at most `timeout` in total.
   virtual IoResult write(std::span<const std::uint8_t> bytes, Nanos timeout) = 0;
-  /// Changes the line rate; false (with a reason) where the link cannot (TCP).
-  virtual bool set_baud(std::uint32_t baud, std::string* error) = 0;
+  /// Changes the line rate; an error where the link cannot (TCP: kUnsupported).
+  virtual IoError set_baud(std::uint32_t baud) = 0;
   virtual bool can_set_baud() const = 0;
   virtual std::uint32_t baud() const = 0;
   /// Drops unread input.
   virtual void flush_input() = 0;
-  /// Closes and opens the link again (after an unplug); false with a reason.
-  virtual bool reopen(std::string* error) = 0;
+  /// Closes and opens the link again (after an unplug). Called on the I/O thread: no
+  /// message is built, nothing allocates; the code says why it failed.
+  virtual IoError reopen() = 0;
   virtual std::string describe() const = 0;
 };
 

@@ -66,7 +66,11 @@ IoResult fd_write(int fd, std::span<const std::uint8_t> bytes, Nanos timeout, bo
 
 std::unique_ptr<TtyStream> TtyStream::open(const std::string& path, std::uint32_t baud, std::string* error) {
   std::unique_ptr<TtyStream> s(new TtyStream(path, baud));
-  if (!s->open_fd(error)) return nullptr;
+  if (const IoError e = s->open_fd(); !e.ok()) {
+    *error = s->describe() + ": cannot open" + (e.code == IoErrc::kBadBaud ? " at " + std::to_string(baud) + " baud" : "") +
+             ": " + io_errc_text(e.code) + (e.sys ? std::string(" (") + e.sys_text() + ")" : "");
+    return nullptr;
+  }
   return s;
 }
 
@@ -74,32 +78,23 @@ TtyStream::~TtyStream() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-bool TtyStream::open_fd(std::string* error) {
+IoError TtyStream::open_fd() {
   if (fd_ >= 0) ::close(fd_);
   fd_ = ::open(path_.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
-  if (fd_ < 0) {
-    *error = "tty:" + path_ + ": cannot open: " + std::strerror(errno);
-    return false;
-  }
-  if (!set_baud(baud_, error)) {
+  if (fd_ < 0) return io_error_from_errno(errno);
+  if (const IoError e = set_baud(baud_); !e.ok()) {
     ::close(fd_);
     fd_ = -1;
-    return false;
+    return e;
   }
-  return true;
+  return {};
 }
 
-bool TtyStream::set_baud(std::uint32_t baud, std::string* error) {
+IoError TtyStream::set_baud(std::uint32_t baud) {
   const speed_t sp = termios_speed(baud);
-  if (!sp) {
-    *error = "tty:" + path_ + ": unsupported baud rate " + std::to_string(baud);
-    return false;
-  }
+  if (!sp) return {IoErrc::kBadBaud, 0};
   termios t{};
-  if (tcgetattr(fd_, &t) != 0) {
-    *error = "tty:" + path_ + ": not a terminal (tcgetattr: " + std::strerror(errno) + ")";
-    return false;
-  }
+  if (tcgetattr(fd_, &t) != 0) return {IoErrc::kNotATerminal, errno};
   cfmakeraw(&t);  // 8 data bits, no parity, no echo, no translation
   t.c_cflag &= ~static_cast<tcflag_t>(CSTOPB | CRTSCTS);
   t.c_cflag |= CLOCAL | CREAD;
@@ -107,12 +102,9 @@ bool TtyStream::set_baud(std::uint32_t baud, std::string* error) {
   t.c_cc[VTIME] = 0;
   cfsetispeed(&t, sp);
   cfsetospeed(&t, sp);
-  if (tcsetattr(fd_, TCSANOW, &t) != 0) {
-    *error = "tty:" + path_ + ": cannot set " + std::to_string(baud) + " baud: " + std::strerror(errno);
-    return false;
-  }
+  if (tcsetattr(fd_, TCSANOW, &t) != 0) return {IoErrc::kBadBaud, errno};
   baud_ = baud;
-  return true;
+  return {};
 }
 
 IoResult TtyStream::read(std::span<std::uint8_t> buffer, Nanos timeout) { return fd_read(fd_, buffer, timeout); }
@@ -120,63 +112,88 @@ IoResult TtyStream::write(std::span<const std::uint8_t> bytes, Nanos timeout) { 
 void TtyStream::flush_input() {
   if (fd_ >= 0) tcflush(fd_, TCIFLUSH);
 }
-bool TtyStream::reopen(std::string* error) { return open_fd(error); }
+IoError TtyStream::reopen() { return open_fd(); }
 
 // ---------------------------------------------------------------- tcp
 
 std::unique_ptr<TcpStream> TcpStream::open(const std::string& host, const std::string& port, std::uint32_t baud,
                                            std::string* error) {
   std::unique_ptr<TcpStream> s(new TcpStream(host, port, baud));
-  if (!s->connect_fd(error)) return nullptr;
+  if (!s->resolve(error)) return nullptr;
+  if (const IoError e = s->connect_fd(kOpenConnectWait); !e.ok()) {
+    *error = s->describe() + ": cannot connect: " + io_errc_text(e.code) + (e.sys ? std::string(" (") + e.sys_text() + ")" : "");
+    return nullptr;
+  }
   return s;
 }
 
 TcpStream::~TcpStream() {
   if (fd_ >= 0) ::close(fd_);
+  if (pending_ >= 0) ::close(pending_);
 }
 
-bool TcpStream::connect_fd(std::string* error) {
-  if (fd_ >= 0) ::close(fd_);
-  fd_ = -1;
+bool TcpStream::resolve(std::string* error) {
   addrinfo hints{};
   hints.ai_family = AF_UNSPEC;
   hints.ai_socktype = SOCK_STREAM;
   addrinfo* res = nullptr;
   const int rc = getaddrinfo(host_.c_str(), port_.c_str(), &hints, &res);
-  if (rc != 0) {
+  if (rc != 0 || !res) {
     *error = describe() + ": cannot resolve: " + gai_strerror(rc);
     return false;
   }
-  int last = 0;
-  for (addrinfo* a = res; a; a = a->ai_next) {
-    const int fd = ::socket(a->ai_family, a->ai_socktype | SOCK_CLOEXEC, a->ai_protocol);
-    if (fd < 0) continue;
-    if (::connect(fd, a->ai_addr, a->ai_addrlen) == 0) {
-      fd_ = fd;
-      break;
-    }
-    last = errno;
-    ::close(fd);
-  }
+  std::memcpy(&addr_, res->ai_addr, res->ai_addrlen);  // the first address: a device server has one
+  addr_len_ = res->ai_addrlen;
   freeaddrinfo(res);
-  if (fd_ < 0) {
-    *error = describe() + ": cannot connect: " + std::strerror(last);
-    return false;
-  }
+  return true;
+}
+
+void TcpStream::established(int fd) {
+  fd_ = fd;
   const int one = 1;
   setsockopt(fd_, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-  fcntl(fd_, F_SETFL, fcntl(fd_, F_GETFL) | O_NONBLOCK);
-  return true;
+}
+
+IoError TcpStream::connect_fd(Nanos wait) {
+  if (fd_ >= 0) {
+    ::close(fd_);
+    fd_ = -1;
+  }
+  if (pending_ < 0) {
+    pending_ = ::socket(addr_.ss_family, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+    if (pending_ < 0) return io_error_from_errno(errno);
+    if (::connect(pending_, reinterpret_cast<const sockaddr*>(&addr_), addr_len_) == 0) {
+      established(pending_);
+      pending_ = -1;
+      return {};
+    }
+    if (errno != EINPROGRESS) {
+      const int e = errno;
+      ::close(pending_);
+      pending_ = -1;
+      return io_error_from_errno(e);
+    }
+  }
+  pollfd p{pending_, POLLOUT, 0};
+  if (poll(&p, 1, timeout_to_ms(wait)) <= 0) return {IoErrc::kConnecting, 0};  // a later call looks again
+  int e = 0;
+  socklen_t len = sizeof e;
+  getsockopt(pending_, SOL_SOCKET, SO_ERROR, &e, &len);
+  const int fd = pending_;
+  pending_ = -1;
+  if (e != 0) {
+    ::close(fd);
+    return io_error_from_errno(e);
+  }
+  established(fd);
+  return {};
 }
 
 IoResult TcpStream::read(std::span<std::uint8_t> buffer, Nanos timeout) { return fd_read(fd_, buffer, timeout); }
 IoResult TcpStream::write(std::span<const std::uint8_t> bytes, Nanos timeout) { return fd_write(fd_, bytes, timeout, true); }
 
-bool TcpStream::set_baud(std::uint32_t baud, std::string* error) {
-  if (baud == baud_) return true;
-  *error = describe() + ": a raw TCP link cannot change the device server's baud rate (configure it there)";
-  return false;
-}
+// A raw TCP link cannot change the device server's baud rate: that is configured there.
+IoError TcpStream::set_baud(std::uint32_t baud) { return baud == baud_ ? IoError{} : IoError{IoErrc::kUnsupported, 0}; }
 
 void TcpStream::flush_input() {
   std::uint8_t buf[512];
@@ -184,6 +201,6 @@ void TcpStream::flush_input() {
   }
 }
 
-bool TcpStream::reopen(std::string* error) { return connect_fd(error); }
+IoError TcpStream::reopen() { return connect_fd(0); }
 
 }  // namespace cairn::serial

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <libserialport.h>
+#include <termios.h>
 
 #include <cerrno>
 #include <cstring>
@@ -9,15 +10,6 @@
 #include "drivers/serial/fd_stream.hpp"
 
 namespace cairn::serial {
-
-namespace {
-std::string sp_message(const std::string& what) {
-  char* msg = sp_last_error_message();
-  std::string s = what + ": " + (msg ? msg : "unknown error");
-  if (msg) sp_free_error_message(msg);
-  return s;
-}
-}  // namespace
 
 std::string list_serial_ports() {
   sp_port** ports = nullptr;
@@ -30,81 +22,77 @@ std::string list_serial_ports() {
 
 std::unique_ptr<SerialPortStream> SerialPortStream::open(const std::string& name, std::uint32_t baud, std::string* error) {
   std::unique_ptr<SerialPortStream> s(new SerialPortStream(name, baud));
-  if (!s->open_port(error)) return nullptr;
+  // Found once, here: sp_get_port_by_name allocates the port's record, which every
+  // reopen (on the I/O thread) then reuses.
+  if (sp_get_port_by_name(name.c_str(), &s->port_) != SP_OK) {
+    s->port_ = nullptr;
+    *error = "serial:" + name + ": no such serial port (libserialport sees: " + list_serial_ports() + ")";
+    return nullptr;
+  }
+  if (const IoError e = s->open_port(); !e.ok()) {
+    *error = "serial:" + name + ": cannot open: " + io_errc_text(e.code) + (e.sys ? std::string(" (") + e.sys_text() + ")" : "") +
+             " (libserialport sees: " + list_serial_ports() + ")";
+    return nullptr;
+  }
   return s;
 }
 
-SerialPortStream::~SerialPortStream() { close_port(); }
+SerialPortStream::~SerialPortStream() {
+  close_port();
+  if (port_) sp_free_port(port_);
+}
 
 void SerialPortStream::close_port() {
-  if (port_) {
-    sp_close(port_);
-    sp_free_port(port_);
-  }
-  port_ = nullptr;
+  if (fd_ >= 0) sp_close(port_);
   fd_ = -1;
 }
 
-bool SerialPortStream::open_port(std::string* error) {
+IoError SerialPortStream::open_port() {
   close_port();
-  if (sp_get_port_by_name(name_.c_str(), &port_) != SP_OK) {
-    port_ = nullptr;
-    *error = "serial:" + name_ + ": no such serial port (libserialport sees: " + list_serial_ports() + ")";
-    return false;
-  }
-  if (sp_open(port_, SP_MODE_READ_WRITE) != SP_OK) {
-    *error = sp_message("serial:" + name_ + ": cannot open (busy, or no permission?)") +
-             " (libserialport sees: " + list_serial_ports() + ")";
-    close_port();
-    return false;
+  if (const sp_return r = sp_open(port_, SP_MODE_READ_WRITE); r != SP_OK) {
+    return r == SP_ERR_FAIL ? io_error_from_errno(sp_last_error_code()) : IoError{IoErrc::kSystem, 0};
   }
   if (sp_set_bits(port_, 8) != SP_OK || sp_set_parity(port_, SP_PARITY_NONE) != SP_OK ||
-      sp_set_stopbits(port_, 1) != SP_OK || sp_set_flowcontrol(port_, SP_FLOWCONTROL_NONE) != SP_OK) {
-    *error = sp_message("serial:" + name_ + ": cannot configure 8N1 without flow control");
-    close_port();
-    return false;
-  }
-  if (!set_baud(baud_, error)) {
-    close_port();
-    return false;
+      sp_set_stopbits(port_, 1) != SP_OK || sp_set_flowcontrol(port_, SP_FLOWCONTROL_NONE) != SP_OK ||
+      sp_set_baudrate(port_, static_cast<int>(baud_)) != SP_OK) {
+    const IoError e{IoErrc::kBadBaud, errno};
+    sp_close(port_);
+    return e;
   }
   // Stream on the descriptor: poll()/read()/write() honour a zero timeout and allocate nothing.
   int fd = -1;
   const int flags = sp_get_port_handle(port_, &fd) == SP_OK && fd >= 0 ? fcntl(fd, F_GETFL) : -1;
   if (flags < 0 || fcntl(fd, F_SETFL, flags | O_NONBLOCK) != 0) {
-    *error = "serial:" + name_ + ": no usable file descriptor from libserialport";
-    close_port();
-    return false;
+    const IoError e{IoErrc::kSystem, errno};
+    sp_close(port_);
+    return e;
   }
   fd_ = fd;
-  return true;
+  return {};
 }
 
-bool SerialPortStream::set_baud(std::uint32_t baud, std::string* error) {
-  if (!port_ || sp_set_baudrate(port_, static_cast<int>(baud)) != SP_OK) {
-    *error = port_ ? sp_message("serial:" + name_ + ": cannot set " + std::to_string(baud) + " baud")
-                   : "serial:" + name_ + ": not open";
-    return false;
-  }
+IoError SerialPortStream::set_baud(std::uint32_t baud) {
+  if (fd_ < 0) return {IoErrc::kNotFound, 0};
+  if (sp_set_baudrate(port_, static_cast<int>(baud)) != SP_OK) return {IoErrc::kBadBaud, errno};
   baud_ = baud;
-  return true;
+  return {};
 }
 
 IoResult SerialPortStream::read(std::span<std::uint8_t> buffer, Nanos timeout) {
-  if (!port_) return {IoResult::Status::kClosed, 0, EBADF};
+  if (fd_ < 0) return {IoResult::Status::kClosed, 0, EBADF};
   return fd_read(fd_, buffer, timeout);
 }
 
 IoResult SerialPortStream::write(std::span<const std::uint8_t> bytes, Nanos timeout) {
-  if (!port_) return {IoResult::Status::kClosed, 0, EBADF};
+  if (fd_ < 0) return {IoResult::Status::kClosed, 0, EBADF};
   return fd_write(fd_, bytes, timeout);
 }
 
 void SerialPortStream::flush_input() {
-  if (port_) sp_flush(port_, SP_BUF_INPUT);
+  if (fd_ >= 0) tcflush(fd_, TCIFLUSH);  // sp_flush does the same
 }
 
-bool SerialPortStream::reopen(std::string* error) { return open_port(error); }
+IoError SerialPortStream::reopen() { return open_port(); }
 
 // ---------------------------------------------------------------- URIs
 

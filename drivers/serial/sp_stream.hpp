@@ -20,21 +20,21 @@ class SerialPortStream final : public ByteStream {
   ~SerialPortStream() override;
   IoResult read(std::span<std::uint8_t> buffer, Nanos timeout) override;
   IoResult write(std::span<const std::uint8_t> bytes, Nanos timeout) override;
-  bool set_baud(std::uint32_t baud, std::string* error) override;
+  IoError set_baud(std::uint32_t baud) override;
   bool can_set_baud() const override { return true; }
   std::uint32_t baud() const override { return baud_; }
   void flush_input() override;
-  bool reopen(std::string* error) override;
+  IoError reopen() override;
   std::string describe() const override { return "serial:" + name_; }
 
  private:
   SerialPortStream(std::string name, std::uint32_t baud) : name_(std::move(name)), baud_(baud) {}
-  bool open_port(std::string* error);
+  IoError open_port();  // on port_, found at open(): allocates nothing
   void close_port();
   std::string name_;
   std::uint32_t baud_;
-  sp_port* port_ = nullptr;
-  int fd_ = -1;  // port_'s descriptor (owned by libserialport), non-blocking
+  sp_port* port_ = nullptr;  // found once, at open(); kept across reopens
+  int fd_ = -1;              // port_'s descriptor while open (owned by libserialport), non-blocking
 };
 
 }  // namespace cairn::serial

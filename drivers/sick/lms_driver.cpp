@@ -18,6 +18,7 @@ const char* state_name(DriverState s) {
 
 LmsDriver::LmsDriver(serial::ByteStream* stream, Clock* clock, const LmsDriverConfig& cfg, ScanSink* sink)
     : stream_(stream), clock_(clock), cfg_(cfg), sink_(sink) {
+  std::snprintf(link_name_.data(), link_name_.size(), "%s", stream_->describe().c_str());
   std::size_t n = 0;
   auto add = [&](std::uint32_t b) {
     for (std::size_t i = 0; i < n; ++i) {
@@ -70,14 +71,11 @@ void LmsDriver::start_search() {
 void LmsDriver::probe_next() {
   if (probe_index_ >= probe_order_.size() || probe_order_[probe_index_] == 0) probe_index_ = 0;
   const std::uint32_t b = probe_order_[probe_index_++];
-  std::array<char, 128> err{};
-  std::string e;
-  if (stream_->baud() != b && !stream_->set_baud(b, &e)) {
-    enter(DriverState::kError, "cannot set %u baud", b);
+  if (const IoError e = stream_->baud() != b ? stream_->set_baud(b) : IoError{}; !e.ok()) {
+    enter(DriverState::kError, "cannot set %u baud: %s %s", b, io_errc_text(e.code), e.sys_text());
     reopen_at_ = clock_->now() + cfg_.reopen_backoff;
     return;
   }
-  (void)err;
   parser_.reset();
   stream_->flush_input();
   enter(DriverState::kSearching, "probing at %u baud", b);
@@ -141,8 +139,7 @@ void LmsDriver::on_reply(const Telegram& t) {
       begin_step(Step::kBaud);
       return;
     case Step::kBaud: {
-      std::string e;
-      if (first != 0x00 || !stream_->set_baud(cfg_.target_baud, &e)) {
+      if (first != 0x00 || !stream_->set_baud(cfg_.target_baud).ok()) {
         enter(DriverState::kConfiguring, "baud change to %u refused; staying at %u", cfg_.target_baud, stream_->baud());
         begin_step(Step::kType);
         return;
@@ -231,7 +228,7 @@ void LmsDriver::on_timeout(Nanos now) {
 
 void LmsDriver::handle_io_failure(const serial::IoResult& r, Nanos now) {
   ++counters_.io_errors;
-  enter(DriverState::kError, "%s: link %s (errno %d)", stream_->describe().c_str(),
+  enter(DriverState::kError, "%s: link %s (errno %d)", link_name_.data(),
         r.status == serial::IoResult::Status::kClosed ? "closed" : "failed", r.error);
   reopen_at_ = now + cfg_.reopen_backoff;
 }
@@ -303,12 +300,11 @@ void LmsDriver::step() {
       clock_->sleep_until(std::min(reopen_at_, now + cfg_.io_slice));
       return;
     }
-    std::string e;
-    if (stream_->reopen(&e)) {
+    if (const IoError e = stream_->reopen(); e.ok()) {
       ++counters_.reconnects;
       start_search();
     } else {
-      enter(DriverState::kError, "%s", e.c_str());
+      enter(DriverState::kError, "%s: reopen failed: %s %s", link_name_.data(), io_errc_text(e.code), e.sys_text());
       reopen_at_ = now + cfg_.reopen_backoff;
     }
     return;

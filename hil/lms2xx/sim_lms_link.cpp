@@ -90,14 +90,14 @@ serial::IoResult SimLmsLink::write(std::span<const std::uint8_t> bytes, Nanos) {
   return {serial::IoResult::Status::kOk, bytes.size(), 0};
 }
 
-bool SimLmsLink::set_baud(std::uint32_t baud, std::string*) {
+IoError SimLmsLink::set_baud(std::uint32_t baud) {
   host_baud_ = baud;
-  return true;
+  return {};
 }
 
-bool SimLmsLink::reopen(std::string*) {
+IoError SimLmsLink::reopen() {
   rx_.clear();
-  return true;
+  return {};
 }
 
 }  // namespace cairn::hil

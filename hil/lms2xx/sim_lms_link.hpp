@@ -35,11 +35,11 @@ class SimLmsLink final : public serial::ByteStream {
   // serial::ByteStream
   serial::IoResult read(std::span<std::uint8_t> buffer, Nanos timeout) override;
   serial::IoResult write(std::span<const std::uint8_t> bytes, Nanos timeout) override;
-  bool set_baud(std::uint32_t baud, std::string* error) override;
+  IoError set_baud(std::uint32_t baud) override;
   bool can_set_baud() const override { return true; }
   std::uint32_t baud() const override { return host_baud_; }
   void flush_input() override { rx_.clear(); }
-  bool reopen(std::string* error) override;
+  IoError reopen() override;
   std::string describe() const override { return "simulated LMS2xx line"; }
 
  private:

@@ -37,6 +37,7 @@ struct Fake {
   int port_fd = -1;          // what sp_get_port_handle hands out
   int waits_forever = 0;     // sp_wait / sp_blocking_write asked with timeout 0
   int library_io_calls = 0;  // sp_wait, sp_blocking_*, sp_nonblocking_read, sp_input_waiting
+  int lookups = 0;           // sp_get_port_by_name (allocates the port's record)
 };
 Fake g_fake;
 sp_event_set g_events{};
@@ -47,7 +48,8 @@ char g_name[] = "fake0";
 extern "C" {
 sp_return sp_get_port_by_name(const char* name, sp_port** port) {
   if (std::strcmp(name, g_name) != 0 || g_fake.port_fd < 0) return SP_ERR_ARG;
-  *port = new sp_port{g_fake.port_fd};
+  ++g_fake.lookups;
+  *port = new sp_port{g_fake.port_fd};  // libserialport mallocs the record and its strings
   return SP_OK;
 }
 void sp_free_port(sp_port* port) { delete port; }
@@ -210,6 +212,29 @@ TEST_F(SerialPortStreamTest, StreamingUsesTheDescriptorAndAllocatesNothing) {
 #endif
   EXPECT_EQ(echoed, 200u);
   EXPECT_EQ(g_fake.library_io_calls, 0) << "streaming went through libserialport's I/O calls";
+}
+
+// A reopen (the laser's I/O thread, after an unplug) reuses the port record found at open:
+// no lookup, no allocation, no message built; and the link streams again afterwards.
+TEST_F(SerialPortStreamTest, ReopenReusesThePortAndAllocatesNothing) {
+  ASSERT_EQ(g_fake.lookups, 1);
+  IoError results[3];
+#ifdef CAIRN_COUNT_ALLOCS
+  cairn::testing::start_counting_allocations();
+#endif
+  for (IoError& r : results) r = stream_->reopen();
+#ifdef CAIRN_COUNT_ALLOCS
+  const std::uint64_t allocations = cairn::testing::stop_counting_allocations();
+  EXPECT_EQ(allocations, 0u) << "the serial: reopen allocated";
+#endif
+  for (const IoError& r : results) EXPECT_TRUE(r.ok()) << io_errc_text(r.code);
+  EXPECT_EQ(g_fake.lookups, 1) << "each reopen looked the port up again (sp_get_port_by_name allocates)";
+  const std::uint8_t hello[] = {'o', 'k'};
+  ASSERT_EQ(::write(sv_[1], hello, 2), 2);
+  std::uint8_t buf[8];
+  const IoResult got = stream_->read(buf, 100 * kNanosPerMilli);
+  ASSERT_EQ(got.status, IoResult::Status::kOk);
+  EXPECT_EQ(got.bytes, 2u);
 }
 
 }  // namespace
