@@ -244,7 +244,8 @@ void LmsDriver::emit_scan(const Telegram& t, Nanos end_time) {
   scan_.seq = ++seq_;
   scan_.count = values_.count;
   const double res_deg = values_.count > 1 ? static_cast<double>(cfg_.angle_deg) / (values_.count - 1) : 1.0;
-  scan_.angle_min = -static_cast<double>(cfg_.angle_deg) / 2.0 * std::numbers::pi / 180.0;
+  // An interlaced partial scan (index 1..3) starts index x 0.25 deg further round.
+  scan_.angle_min = (-static_cast<double>(cfg_.angle_deg) / 2.0 + 0.25 * values_.partial_index) * std::numbers::pi / 180.0;
   scan_.angle_increment = res_deg * std::numbers::pi / 180.0;
   scan_.beam_period_s = res_deg / 360.0 / 75.0;
   for (std::uint16_t i = 0; i < values_.count; ++i) {

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <numbers>
 
 namespace cairn::hil {
 
@@ -194,11 +195,15 @@ std::uint16_t LmsDevice::encode_range(double range_m, bool hit, bool reflective)
 void LmsDevice::queue_scan(Nanos now) {
   const int n = sweep_beams(angle_, res_);
   const Pose2 sensor = pose_(now);
+  const std::uint16_t partial = cfg_.interlaced ? partial_ : 0;
+  partial_ = static_cast<std::uint8_t>((partial_ + 1) % 4);
+  Pose2 sweep = sensor;  // an interlaced partial scan starts index x 0.25 deg further round
+  sweep.theta += partial * 0.25 * std::numbers::pi / 180.0;
   std::array<BeamSample, kMaxBeams> beams;
-  synthesize_sweep(*world_, sensor, angle_, res_, cfg_.max_range_m, cfg_.range_noise_m, rng_, beams.data());
+  synthesize_sweep(*world_, sweep, angle_, res_, cfg_.max_range_m, cfg_.range_noise_m, rng_, beams.data());
   std::uint8_t data[2 + 2 * kMaxBeams];
   const std::uint16_t units = config_.units() & 0x3;
-  const std::uint16_t word = static_cast<std::uint16_t>(n | (units << 14));
+  const std::uint16_t word = static_cast<std::uint16_t>(n | (partial << 11) | (units << 14));
   data[0] = static_cast<std::uint8_t>(word & 0xFF);
   data[1] = static_cast<std::uint8_t>(word >> 8);
   // The host's view of each value, for the scan's fingerprint (no allocation: fixed arrays).

@@ -35,6 +35,10 @@ struct LmsDeviceConfig {
   // The rate the device wakes at: 9600 from the factory; a device whose baud rate was set
   // permanently (as behind a serial device server at a fixed rate) wakes at that rate.
   std::uint32_t power_on_baud = 9600;
+  // Interlaced output, as in the partial-scan modes (0x2A): successive telegrams carry
+  // partial-scan index 0, 1, 2, 3 in the count word (bits 11-12), each sweep turned by
+  // index x 0.25 deg (protocols.md 1.6). Off: every telegram is index 0, as in mode 0x24.
+  bool interlaced = false;
 };
 
 /// What the device knows about the scan it sends (for tests: ground truth per scan).
@@ -135,6 +139,7 @@ class LmsDevice {
   lms::ConfigBlock config_;   // units etc.
   Nanos next_scan_ = 0;
   std::uint32_t scan_index_ = 0;
+  std::uint8_t partial_ = 0;  // the next partial-scan index (interlaced)
   bool corrupt_crc_ = false;
   std::size_t drop_bytes_ = 0;
   Counters counters_;

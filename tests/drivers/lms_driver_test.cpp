@@ -14,6 +14,8 @@
 
 #include <atomic>
 #include <mutex>
+#include <numbers>
+#include <set>
 #include <thread>
 #include <vector>
 
@@ -55,9 +57,9 @@ struct Collector : lms::ScanSink {
 
 class Bench {
  public:
-  explicit Bench(hil::LmsServer::Link link, std::uint32_t target = 500000)
+  explicit Bench(hil::LmsServer::Link link, std::uint32_t target = 500000, bool interlaced = false)
       : world_(hil::World::parse(kWorld, "test")),
-        server_(link, cfg(link, target), &world_, [](Nanos) { return kSensor; }) {
+        server_(link, cfg(link, target, interlaced), &world_, [](Nanos) { return kSensor; }) {
     server_.start();
     std::string err;
     stream_ = serial::open_stream(server_.uri(), link == hil::LmsServer::Link::kTcp ? target : 9600, &err);
@@ -71,8 +73,10 @@ class Bench {
     stop_io();
     server_.stop();
   }
-  static hil::LmsDeviceConfig cfg(hil::LmsServer::Link link = hil::LmsServer::Link::kPty, std::uint32_t target = 500000) {
+  static hil::LmsDeviceConfig cfg(hil::LmsServer::Link link = hil::LmsServer::Link::kPty, std::uint32_t target = 500000,
+                                  bool interlaced = false) {
     hil::LmsDeviceConfig c;
+    c.interlaced = interlaced;
     c.boot_time_s = 0.2;
     c.range_noise_m = 0.005;
     // Behind a serial device server (TCP) the laser is set permanently to the server's rate.
@@ -168,6 +172,32 @@ TEST(LmsDriver, ScansEqualTheWorldsRayCasts) {
   }
   EXPECT_EQ(compared, 361);
   EXPECT_GT(reflective_seen, 0);
+}
+
+// Interlaced output: partial scans 1..3 start 0.25, 0.5, 0.75 deg further round. Each of four
+// successive scans must carry its offset and match the world's ray casts at its own angles.
+TEST(LmsDriver, InterlacedPartialScansCarryTheirAngleOffset) {
+  std::string why;
+  const bool pty = testing::pty_carries_500k(&why);
+  Bench b(pty ? hil::LmsServer::Link::kPty : hil::LmsServer::Link::kTcp, 500000, true);
+  b.start_io();
+  ASSERT_GT(b.wait_streaming(8, 5s), 0) << b.reason();
+  std::lock_guard l(b.sink_.m);
+  ASSERT_GE(b.sink_.scans.size(), 4u);
+  std::set<long> offsets_mdeg;
+  for (std::size_t k = b.sink_.scans.size() - 4; k < b.sink_.scans.size(); ++k) {
+    const lms::LmsScan& s = b.sink_.scans[k];
+    ASSERT_EQ(s.count, 361);
+    const double offset_deg = s.angle_min * 180.0 / std::numbers::pi + 90.0;
+    offsets_mdeg.insert(std::lround(offset_deg * 1000));
+    int mismatched = 0;
+    for (int i = 0; i < s.count; ++i) {
+      const hil::RayHit h = b.world_.cast(kSensor.translation(), kSensor.theta + s.angle_min + i * s.angle_increment, 30.0);
+      if (h.hit != (s.range_mm[i] != 0) || (h.hit && std::abs(s.range_mm[i] / 1000.0 - h.range) > 5 * 0.005 + 0.001)) ++mismatched;
+    }
+    EXPECT_EQ(mismatched, 0) << "scan with offset " << offset_deg << " deg";
+  }
+  EXPECT_EQ(offsets_mdeg, (std::set<long>{0, 250, 500, 750})) << "partial-scan offsets";
 }
 
 TEST(LmsDriver, StreamsOverTcpAtAFixedBaud) {
