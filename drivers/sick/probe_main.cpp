@@ -37,7 +37,7 @@ struct Printer : lms::ScanSink {
   }
 };
 
-int run(const std::string& uri, std::uint32_t baud, std::uint32_t target, int resolution, int scans, double rate_s,
+int run(const std::string& uri, std::uint32_t baud, std::uint32_t target, int angle, int resolution, int scans, double rate_s,
         double timeout_s) {
   std::string err;
   auto stream = serial::open_stream(uri, baud, &err);
@@ -45,6 +45,7 @@ int run(const std::string& uri, std::uint32_t baud, std::uint32_t target, int re
   std::printf("probe: %s opened at %u baud\n", stream->describe().c_str(), baud);
   lms::LmsDriverConfig cfg;
   cfg.target_baud = target;
+  cfg.angle_deg = static_cast<std::uint16_t>(angle);
   cfg.resolution_centideg = static_cast<std::uint16_t>(resolution);
   Printer printer;
   printer.quiet = rate_s > 0;
@@ -95,21 +96,29 @@ int main(int argc, char** argv) {
                "Examples:  cairn-lms-probe --uri serial:/dev/ttyUSB0 --scans 5\n"
                "           cairn-lms-probe --uri tcp:192.0.2.7:4001 --baud 38400 --target-baud 38400 --rate 10"};
   std::string uri;
-  int baud = 9600, target = 500000, resolution = 50, scans = 10;
+  int baud = 9600, target = 500000, angle = 180, resolution = 50, scans = 10;
   double rate = 0, timeout = 10;
   app.add_option("-u,--uri", uri, "serial:/dev/ttyUSB0, tty:/dev/pts/N or tcp:HOST:PORT")->required();
   const std::vector<std::uint32_t> rates(lms::kBauds.begin(), lms::kBauds.end());
   app.add_option("--baud", baud, "host baud rate to open with (the driver searches all four anyway)")->check(CLI::IsMember(rates));
   app.add_option("--target-baud", target, "baud rate to switch the scanner to (38400 for RS-232 adapters)")
       ->check(CLI::IsMember(rates));
-  app.add_option("--resolution", resolution, "angular resolution in 1/100 degree: 100, 50 or 25")->check(CLI::IsMember({100, 50, 25}));
+  app.add_option("--angle", angle, "scanning field in degrees: 100 or 180");
+  app.add_option("--resolution", resolution, "angular resolution in 1/100 degree: 100, 50 or 25 (25: 100 degree field only)");
   app.add_option("-n,--scans", scans, "print this many scans, then exit")->check(CLI::PositiveNumber);
   app.add_option("--rate", rate, "instead of printing scans, measure the scan rate over this many seconds");
   app.add_option("--timeout", timeout, "give up if not streaming after this many seconds");
   CLI11_PARSE(app, argc, argv);
+  // The scanner's own rule (lms::valid_variant), as the driver's config and the emulator use it.
+  if (angle < 0 || angle > 0xFFFF || resolution < 0 || resolution > 0xFFFF ||
+      !lms::valid_variant(static_cast<std::uint16_t>(angle), static_cast<std::uint16_t>(resolution))) {
+    std::fprintf(stderr, "cairn-lms-probe: --angle %d --resolution %d is not a variant an LMS2xx offers "
+                 "(100 degrees at 100, 50 or 25; 180 degrees at 100 or 50)\n", angle, resolution);
+    return 2;
+  }
   if (uri.rfind("serial:", 0) == 0 && uri == "serial:") std::printf("ports: %s\n", serial::list_serial_ports().c_str());
   install_shutdown_handlers();
   return run_program("cairn-lms-probe", [&] {
-    return run(uri, static_cast<std::uint32_t>(baud), static_cast<std::uint32_t>(target), resolution, scans, rate, timeout);
+    return run(uri, static_cast<std::uint32_t>(baud), static_cast<std::uint32_t>(target), angle, resolution, scans, rate, timeout);
   });
 }

@@ -36,6 +36,10 @@ TEST(LmsProbe, FindsTheEmulatedScannerOverPtyAndTcp) {
   testing::Subprocess bad({CAIRN_PROBE_BIN, "--uri", "serial:/dev/ttyNOPE"});
   EXPECT_EQ(bad.wait(10s), 1);
   EXPECT_NE(bad.output().find("no such serial port"), std::string::npos) << bad.output();
+  // 0.25 degree exists only with the 100 degree field (lms::valid_variant, the driver's rule).
+  testing::Subprocess variant({CAIRN_PROBE_BIN, "--uri", "tty:/dev/null", "--resolution", "25"});
+  EXPECT_EQ(variant.wait(10s), 2);
+  EXPECT_NE(variant.output().find("not a variant an LMS2xx offers"), std::string::npos) << variant.output();
 }
 
 }  // namespace
