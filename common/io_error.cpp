@@ -15,6 +15,7 @@ const char* io_errc_text(IoErrc code) {
     case IoErrc::kConnecting: return "connecting (no answer yet)";
     case IoErrc::kUnreachable: return "peer unreachable";
     case IoErrc::kLinkDown: return "link down";
+    case IoErrc::kBusOff: return "bus-off persists";
     case IoErrc::kUnsupported: return "not supported by this link";
     case IoErrc::kBadBaud: return "baud rate not settable";
     case IoErrc::kNotATerminal: return "not a terminal";

@@ -17,6 +17,7 @@ enum class IoErrc : std::uint8_t {
   kConnecting,   // a non-blocking connect is under way: try again later
   kUnreachable,  // no route, or the peer did not answer in time
   kLinkDown,     // the network interface is down
+  kBusOff,       // the CAN controller is still bus-off
   kUnsupported,  // the link cannot do this (a baud change over TCP)
   kBadBaud,      // a rate the link or the OS cannot set
   kNotATerminal, // a tty: path that is no terminal

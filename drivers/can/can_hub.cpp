@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cerrno>
 #include <cstring>
+#include <string_view>
 #include <stdexcept>
 
 #include "drivers/can/socketcan_port.hpp"
@@ -42,7 +43,7 @@ void decode_wire(const std::uint8_t* b, Frame* f, Kind* kind, std::uint16_t* sen
   std::memcpy(f->data.data(), b + 8, 8);
 }
 
-sockaddr_un unix_address(const std::string& path, socklen_t* len) {
+sockaddr_un unix_address(std::string_view path, socklen_t* len) {
   sockaddr_un a{};
   a.sun_family = AF_UNIX;
   std::memcpy(a.sun_path, path.data(), std::min(path.size(), sizeof a.sun_path - 1));
@@ -161,7 +162,10 @@ void Hub::run() {
 
 std::unique_ptr<UcanPort> UcanPort::open(const std::string& path, std::uint16_t sender, bool receive_own, std::string* error) {
   std::unique_ptr<UcanPort> p(new UcanPort(path, sender, receive_own));
-  if (!p->connect_hub(error)) return nullptr;
+  if (const IoError e = p->connect_hub(); !e.ok()) {
+    *error = "ucan:" + path + ": no CAN hub there (" + e.sys_text() + "); is the HIL bench running?";
+    return nullptr;
+  }
   return p;
 }
 
@@ -173,20 +177,23 @@ UcanPort::~UcanPort() {
   }
 }
 
-bool UcanPort::connect_hub(std::string* error) {
+IoError UcanPort::connect_hub() {
   if (fd_ >= 0) ::close(fd_);
   fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
-  // A unique abstract address, so the hub can tell ports apart and reply.
-  std::string name = std::string(1, '\0') + "cairn-ucan-" + std::to_string(getpid()) + "-" + std::to_string(g_port_counter++);
+  // A unique abstract address, so the hub can tell ports apart and reply. Built in a fixed
+  // buffer: a restart on the CAN thread allocates nothing.
+  char name[64];
+  name[0] = '\0';
+  const int n = std::snprintf(name + 1, sizeof name - 1, "cairn-ucan-%d-%u", static_cast<int>(getpid()), g_port_counter++);
   socklen_t len = 0, hlen = 0;
-  const sockaddr_un self = unix_address(name, &len);
+  const sockaddr_un self = unix_address(std::string_view(name, static_cast<std::size_t>(n) + 1), &len);
   const sockaddr_un hub = unix_address(path_, &hlen);
   if (::bind(fd_, reinterpret_cast<const sockaddr*>(&self), len) != 0 ||
       ::connect(fd_, reinterpret_cast<const sockaddr*>(&hub), hlen) != 0) {
-    if (error) *error = "ucan:" + path_ + ": no CAN hub there (" + std::strerror(errno) + "); is the HIL bench running?";
+    const IoError e = io_error_from_errno(errno);
     ::close(fd_);
     fd_ = -1;
-    return false;
+    return e;
   }
   const int big = 1 << 20;
   setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &big, sizeof big);
@@ -195,7 +202,7 @@ bool UcanPort::connect_hub(std::string* error) {
   const Wire w = encode_wire(hello, kHello, sender_);
   ::send(fd_, w.bytes, sizeof w.bytes, 0);
   bus_off_ = false;
-  return true;
+  return {};
 }
 
 SendResult UcanPort::send(const Frame& f, Nanos deadline) {
@@ -252,10 +259,10 @@ bool UcanPort::receive(Frame* f, Nanos timeout) {
   }
 }
 
-bool UcanPort::restart(std::string* error) {
+IoError UcanPort::restart() {
   const Wire w = encode_wire(Frame{}, kRestart, sender_);
-  if (::send(fd_, w.bytes, sizeof w.bytes, 0) != 16) return connect_hub(error);
-  return true;
+  if (::send(fd_, w.bytes, sizeof w.bytes, 0) != 16) return connect_hub();
+  return {};
 }
 
 // ---------------------------------------------------------------- URIs

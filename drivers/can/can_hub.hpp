@@ -65,12 +65,12 @@ class UcanPort final : public Port {
   bool receive(Frame* f, Nanos timeout) override;
   const BusStats& stats() const override { return stats_; }
   bool bus_off() const override { return bus_off_; }
-  bool restart(std::string* error) override;
+  IoError restart() override;
   std::string describe() const override { return "ucan:" + path_; }
 
  private:
   UcanPort(std::string path, std::uint16_t sender, bool own) : path_(std::move(path)), sender_(sender), receive_own_(own) {}
-  bool connect_hub(std::string* error);
+  IoError connect_hub();  // allocates nothing (a restart on the CAN thread calls it)
   std::string path_;
   std::uint16_t sender_;
   bool receive_own_;

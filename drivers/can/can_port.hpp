@@ -9,6 +9,7 @@
 #include <string>
 
 #include "common/clock.hpp"
+#include "common/io_error.hpp"
 
 namespace cairn::can {
 
@@ -53,9 +54,9 @@ class Port {
   virtual bool receive(Frame* f, Nanos timeout) = 0;
   virtual const BusStats& stats() const = 0;
   virtual bool bus_off() const = 0;
-  /// Recovers from bus-off / a down interface; false with a reason in `error`. `error`
-  /// may be null: an I/O thread after start-up passes null and nothing is allocated.
-  virtual bool restart(std::string* error) = 0;
+  /// Recovers from bus-off / a down interface. Called on the CAN I/O thread: nothing is
+  /// allocated, the code says why it failed.
+  virtual IoError restart() = 0;
   virtual std::string describe() const = 0;
   /// The caller has nothing to do on this port until `until` (monotonic): the CANopen
   /// master's throttle under a flood of frames. A real port sleeps on the monotonic clock,

@@ -22,36 +22,38 @@ std::unique_ptr<SocketCanPort> SocketCanPort::open(const std::string& iface, con
     return nullptr;
   }
   std::unique_ptr<SocketCanPort> p(new SocketCanPort(iface, filters));
-  if (!p->open_socket(error)) return nullptr;
-  return p;
+  const IoError e = p->open_socket();
+  if (e.ok()) return p;
+  const std::string why = std::string(io_errc_text(e.code)) + (e.sys ? std::string(" (") + e.sys_text() + ")" : "");
+  if (e.code == IoErrc::kUnsupported) {
+    *error = "interface " + iface + ": this kernel has no SocketCAN support (socket(PF_CAN): " + e.sys_text() +
+             "); use the VM bench, or a user-space bus (ucan:PATH)";
+  } else if (e.code == IoErrc::kNotFound) {
+    *error = "interface " + iface + ": no such CAN interface (" + e.sys_text() + ")";
+  } else {
+    *error = "interface " + iface + ": cannot open: " + why;
+  }
+  return nullptr;
 }
 
 SocketCanPort::~SocketCanPort() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-bool SocketCanPort::open_socket(std::string* error) {
+IoError SocketCanPort::open_socket() {
   if (fd_ >= 0) ::close(fd_);
   fd_ = ::socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC | SOCK_NONBLOCK, CAN_RAW);
   if (fd_ < 0) {
-    if (errno == EAFNOSUPPORT || errno == EPROTONOSUPPORT) {
-      if (error) {
-        *error = "interface " + iface_ + ": this kernel has no SocketCAN support (socket(PF_CAN): " + std::strerror(errno) +
-                 "); use the VM bench, or a user-space bus (ucan:PATH)";
-      }
-    } else if (error) {
-      *error = "interface " + iface_ + ": socket(PF_CAN): " + std::strerror(errno);
-    }
-    return false;
+    return errno == EAFNOSUPPORT || errno == EPROTONOSUPPORT ? IoError{IoErrc::kUnsupported, errno} : io_error_from_errno(errno);
   }
-  ifreq ifr{};
-  std::strncpy(ifr.ifr_name, iface_.c_str(), IFNAMSIZ - 1);
-  if (::ioctl(fd_, SIOCGIFINDEX, &ifr) != 0) {
-    if (error) *error = "interface " + iface_ + ": no such CAN interface (" + std::strerror(errno) + ")";
+  auto fail = [this](IoError e) {
     ::close(fd_);
     fd_ = -1;
-    return false;
-  }
+    return e;
+  };
+  ifreq ifr{};
+  std::strncpy(ifr.ifr_name, iface_.c_str(), IFNAMSIZ - 1);
+  if (::ioctl(fd_, SIOCGIFINDEX, &ifr) != 0) return fail({IoErrc::kNotFound, errno});
   can_filter f[kMaxFilters];  // on the stack: a restart on the CAN thread allocates nothing
   for (std::size_t i = 0; i < filters_.size(); ++i) f[i] = {filters_[i].id, filters_[i].mask};
   if (!filters_.empty()) setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_FILTER, f, static_cast<socklen_t>(filters_.size() * sizeof(can_filter)));
@@ -62,14 +64,9 @@ bool SocketCanPort::open_socket(std::string* error) {
   sockaddr_can addr{};
   addr.can_family = AF_CAN;
   addr.can_ifindex = ifr.ifr_ifindex;
-  if (::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    if (error) *error = "interface " + iface_ + ": bind: " + std::strerror(errno);
-    ::close(fd_);
-    fd_ = -1;
-    return false;
-  }
+  if (::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) return fail(io_error_from_errno(errno));
   bus_off_ = false;
-  return true;
+  return {};
 }
 
 SendResult SocketCanPort::send(const Frame& f, Nanos deadline) {
@@ -149,11 +146,11 @@ bool SocketCanPort::receive(Frame* f, Nanos timeout) {
   return true;
 }
 
-bool SocketCanPort::restart(std::string* error) {
+IoError SocketCanPort::restart() {
   // Bus-off recovery itself is the kernel's (ip link ... restart-ms N); we reopen the socket
   // so a down/up interface is picked up again.
   ++stats_.restarts;
-  return open_socket(error);
+  return open_socket();
 }
 
 }  // namespace cairn::can

@@ -23,12 +23,12 @@ class SocketCanPort final : public Port {
   bool receive(Frame* f, Nanos timeout) override;
   const BusStats& stats() const override { return stats_; }
   bool bus_off() const override { return bus_off_; }
-  bool restart(std::string* error) override;
+  IoError restart() override;
   std::string describe() const override { return "socketcan:" + iface_; }
 
  private:
   SocketCanPort(std::string iface, std::vector<Filter> filters) : iface_(std::move(iface)), filters_(std::move(filters)) {}
-  bool open_socket(std::string* error);
+  IoError open_socket();  // allocates nothing (a restart on the CAN thread calls it)
   std::string iface_;
   std::vector<Filter> filters_;
   int fd_ = -1;

@@ -266,7 +266,7 @@ void DriveMaster::step() {
   // Bus-off: restart the port with back-off; everything stays commanded zero meanwhile.
   if (port_->bus_off()) {
     if (now >= bus_retry_at_) {
-      if (!port_->restart(nullptr)) ++restart_failures_;  // no message: nothing allocated here
+      if (!port_->restart().ok()) ++restart_failures_;
       bus_retry_at_ = now + cfg_.recovery_backoff;
       for (std::size_t i = 0; i < count_; ++i) {
         if (nodes_[i].phase == NodePhase::kEnabled) set_phase(nodes_[i], NodePhase::kEnable, "bus-off: restarting the bus");

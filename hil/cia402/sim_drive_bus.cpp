@@ -48,14 +48,11 @@ bool SimDriveBus::receive(can::Frame* f, Nanos timeout) {
   }
 }
 
-bool SimDriveBus::restart(std::string* error) {
-  if (clock_->now() < hold_until_) {
-    if (error) *error = "bus-off persists";
-    return false;
-  }
+IoError SimDriveBus::restart() {
+  if (clock_->now() < hold_until_) return {IoErrc::kBusOff, 0};
   bus_off_ = false;
   ++stats_.restarts;
-  return true;
+  return {};
 }
 
 void SimDriveBus::inject_bus_off(Nanos hold) {

@@ -33,7 +33,7 @@ class SimDriveBus final : public can::Port {
   bool receive(can::Frame* f, Nanos timeout) override;
   const can::BusStats& stats() const override { return stats_; }
   bool bus_off() const override { return bus_off_; }
-  bool restart(std::string* error) override;
+  IoError restart() override;
   std::string describe() const override { return "simulated CAN bus (" + std::to_string(nodes_.size()) + " drives)"; }
   void pause(Nanos until) override { run_until(until); }  // the drives go on meanwhile
 

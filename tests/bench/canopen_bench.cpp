@@ -69,7 +69,7 @@ class DirectBus : public can::Port {
   }
   const can::BusStats& stats() const override { return stats_; }
   bool bus_off() const override { return false; }
-  bool restart(std::string*) override { return true; }
+  IoError restart() override { return {}; }
   std::string describe() const override { return "direct"; }
   void pause(Nanos until) override { clock_->set(until); }  // simulated time, not the machine's
 

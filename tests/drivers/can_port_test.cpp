@@ -71,8 +71,8 @@ TEST(UserSpaceCan, BusOffIsReportedAndRecovered) {
   f = {};
   f.id = 0x201;
   EXPECT_EQ(a->send(f, soon()), SendResult::kBusOff);
-  std::string err;
-  ASSERT_TRUE(a->restart(&err)) << err;
+  const IoError restarted = a->restart();
+  ASSERT_TRUE(restarted.ok()) << io_errc_text(restarted.code);
   ASSERT_TRUE(a->receive(&f, 500 * kNanosPerMilli));  // the restarted error frame
   EXPECT_FALSE(a->bus_off());
   f = {};

@@ -26,7 +26,7 @@ class ScriptedPort final : public can::Port {
   }
   const can::BusStats& stats() const override { return stats_; }
   bool bus_off() const override { return false; }
-  bool restart(std::string*) override { return true; }
+  IoError restart() override { return {}; }
   std::string describe() const override { return "scripted"; }
   void pause(Nanos until) override {
     if (on_pause) on_pause(until);

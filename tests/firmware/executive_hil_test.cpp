@@ -112,7 +112,7 @@ class HangablePort final : public can::Port {
   }
   const can::BusStats& stats() const override { return inner_->stats(); }
   bool bus_off() const override { return inner_->bus_off(); }
-  bool restart(std::string* error) override { return inner_->restart(error); }
+  IoError restart() override { return inner_->restart(); }
   std::string describe() const override { return inner_->describe(); }
   void pause(Nanos until) override { inner_->pause(until); }
 
