@@ -157,39 +157,26 @@ void DriveNode::over_current(Nanos now) {
 void DriveNode::handle_sdo(const Frame& f) {
   const std::uint8_t cmd = f.data[0];
   const SdoAddress a{static_cast<std::uint16_t>(f.data[1] | (f.data[2] << 8)), f.data[3]};
-  const std::uint32_t abort_cob = kCobSdoTx + cfg_.node;
-  auto respond = [&](std::uint8_t c, std::uint32_t v) {
-    Frame r;
-    r.id = abort_cob;
-    r.len = 8;
-    r.data[0] = c;
-    r.data[1] = f.data[1];
-    r.data[2] = f.data[2];
-    r.data[3] = f.data[3];
-    for (int i = 0; i < 4; ++i) r.data[4 + i] = static_cast<std::uint8_t>(v >> (8 * i));
-    send(r);
-  };
+  const std::uint8_t node = cfg_.node;
+  const std::uint32_t abort_cob = kCobSdoTx + node;
   const std::uint8_t ccs = cmd >> 5;
   if (ccs == 3) {  // upload segment request (device name)
     if (upload_.empty()) return send(sdo_abort(abort_cob, {}, abort_code::kCommand));
     if (static_cast<bool>(cmd & 0x10) != upload_toggle_) return send(sdo_abort(abort_cob, {}, abort_code::kToggleBit));
     const std::size_t n = std::min<std::size_t>(7, upload_.size() - upload_off_);
     const bool last = upload_off_ + n >= upload_.size();
-    Frame r;
-    r.id = abort_cob;
-    r.len = 8;
-    r.data[0] = static_cast<std::uint8_t>((upload_toggle_ ? 0x10 : 0) | ((7 - n) << 1) | (last ? 1 : 0));
-    std::copy_n(upload_.begin() + static_cast<long>(upload_off_), n, r.data.begin() + 1);
+    const auto* chunk = reinterpret_cast<const std::uint8_t*>(upload_.data() + upload_off_);
+    send(sdo_upload_segment_response(node, upload_toggle_, {chunk, n}, last));
     upload_off_ += n;
     upload_toggle_ = !upload_toggle_;
     if (last) upload_.clear();
-    return send(r);
+    return;
   }
   if (a.index == 0x1008 && ccs == 2) {  // device name: segmented upload
     upload_ = cfg_.name;
     upload_off_ = 0;
     upload_toggle_ = false;
-    return respond(0x41, static_cast<std::uint32_t>(upload_.size()));
+    return send(sdo_upload_segmented_init(node, a, static_cast<std::uint32_t>(upload_.size())));
   }
   auto it = od_.find(key(a.index, a.sub));
   if (it == od_.end()) {
@@ -197,9 +184,8 @@ void DriveNode::handle_sdo(const Frame& f) {
     return send(sdo_abort(abort_cob, a, index_exists ? abort_code::kSubUnknown : abort_code::kNotExist));
   }
   if (ccs == 2) {  // initiate upload
-    const std::uint8_t n = it->second.size;
     if (a.index == 0x6041) it->second.value = statusword();
-    return respond(static_cast<std::uint8_t>(0x43 | ((4 - n) << 2)), it->second.value);
+    return send(sdo_upload_expedited(node, a, it->second.value, it->second.size));
   }
   if (ccs == 1) {  // initiate download (expedited only)
     if (!(cmd & 0x02)) return send(sdo_abort(abort_cob, a, abort_code::kUnsupportedAccess));
@@ -212,7 +198,7 @@ void DriveNode::handle_sdo(const Frame& f) {
     it->second.value = v;
     if (a.index == 0x6040) handle_controlword(static_cast<std::uint16_t>(v));
     if (a.index == 0x6060) set_od(0x6061, 0, v);
-    return respond(0x60, 0);
+    return send(sdo_download_ack(node, a));
   }
   send(sdo_abort(abort_cob, a, abort_code::kCommand));
 }

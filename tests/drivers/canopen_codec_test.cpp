@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <vector>
 
 #include "drivers/canopen/cia402.hpp"
@@ -140,6 +141,64 @@ TEST(CanopenSdo, SegmentedRequests) {
   EXPECT_EQ(bytes(sdo_download_initiate(1, {0x1008, 0}, 10)), (std::vector<int>{0x21, 0x08, 0x10, 0x00, 10, 0, 0, 0}));
   const std::uint8_t chunk[] = {'a', 'b', 'c'};
   EXPECT_EQ(bytes(sdo_download_segment(1, true, chunk, true)), (std::vector<int>{0x19, 'a', 'b', 'c', 0, 0, 0, 0}));
+}
+
+// The server's responses (what the emulated drive sends) against CiA 301's command bytes.
+TEST(CanopenSdo, ServerResponsesAreByteExact) {
+  EXPECT_EQ(sdo_download_ack(1, {0x6040, 0}).id, 0x581u);
+  EXPECT_EQ(bytes(sdo_download_ack(1, {0x6040, 0})), (std::vector<int>{0x60, 0x40, 0x60, 0x00, 0, 0, 0, 0}));
+  // Expedited upload, size indicated: 0x43 | (4 - n) << 2, the unused bytes zero.
+  EXPECT_EQ(bytes(sdo_upload_expedited(1, {0x1000, 0}, 0xFFFF0192, 4)), (std::vector<int>{0x43, 0x00, 0x10, 0x00, 0x92, 0x01, 0xFF, 0xFF}));
+  EXPECT_EQ(bytes(sdo_upload_expedited(1, {0x1A00, 1}, 0x606C0020, 3)), (std::vector<int>{0x47, 0x00, 0x1A, 0x01, 0x20, 0x00, 0x6C, 0}));
+  EXPECT_EQ(bytes(sdo_upload_expedited(1, {0x6041, 0}, 0x0237, 2)), (std::vector<int>{0x4B, 0x41, 0x60, 0x00, 0x37, 0x02, 0, 0}));
+  EXPECT_EQ(bytes(sdo_upload_expedited(1, {0x6061, 0}, 0xAB09, 1)), (std::vector<int>{0x4F, 0x61, 0x60, 0x00, 0x09, 0, 0, 0}));
+  EXPECT_EQ(bytes(sdo_upload_segmented_init(2, {0x1008, 0}, 28)), (std::vector<int>{0x41, 0x08, 0x10, 0x00, 28, 0, 0, 0}));
+  EXPECT_EQ(sdo_upload_segmented_init(2, {0x1008, 0}, 28).id, 0x582u);
+  const std::uint8_t seven[] = {'C', 'a', 'i', 'r', 'n', ' ', 'e'}, one[] = {'x'};
+  EXPECT_EQ(bytes(sdo_upload_segment_response(1, false, seven, false)), (std::vector<int>{0x00, 'C', 'a', 'i', 'r', 'n', ' ', 'e'}));
+  EXPECT_EQ(bytes(sdo_upload_segment_response(1, true, one, true)), (std::vector<int>{0x1D, 'x', 0, 0, 0, 0, 0, 0}));  // 6 unused, last
+  EXPECT_EQ(bytes(sdo_download_segment_ack(1, false)), (std::vector<int>{0x20, 0, 0, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(bytes(sdo_download_segment_ack(1, true)), (std::vector<int>{0x30, 0, 0, 0, 0, 0, 0, 0}));
+}
+
+// Each server response decodes (as the client reads it) to what it was built from.
+TEST(CanopenSdo, ServerResponsesRoundTrip) {
+  const SdoAddress a{0x1A01, 1};
+  SdoResponse r = decode_sdo_response(sdo_download_ack(5, a));
+  EXPECT_EQ(r.type, SdoResponse::Type::kDownloadAck);
+  EXPECT_EQ(r.address.index, a.index);
+  EXPECT_EQ(r.address.sub, a.sub);
+  for (std::uint8_t n = 1; n <= 4; ++n) {
+    const std::uint32_t value = 0xDEADBEEF;
+    r = decode_sdo_response(sdo_upload_expedited(5, a, value, n));
+    EXPECT_EQ(r.type, SdoResponse::Type::kUploadExpedited) << int{n};
+    EXPECT_EQ(r.size, n);
+    EXPECT_EQ(r.value, n == 4 ? value : value & ((1u << (8 * n)) - 1)) << int{n};
+    EXPECT_EQ(r.address.index, a.index);
+    EXPECT_EQ(r.address.sub, a.sub);
+  }
+  r = decode_sdo_response(sdo_upload_segmented_init(5, {0x1008, 0}, 300));
+  EXPECT_EQ(r.type, SdoResponse::Type::kUploadSegmentedInit);
+  EXPECT_EQ(r.value, 300u);
+  EXPECT_EQ(r.address.index, 0x1008);
+  const std::uint8_t text[] = {1, 2, 3, 4, 5, 6, 7};
+  for (std::size_t n = 1; n <= 7; ++n) {
+    for (const bool toggle : {false, true}) {
+      for (const bool last : {false, true}) {
+        r = decode_sdo_response(sdo_upload_segment_response(5, toggle, {text, n}, last));
+        EXPECT_EQ(r.type, SdoResponse::Type::kUploadSegment);
+        EXPECT_EQ(r.size, n);
+        EXPECT_EQ(r.toggle, toggle);
+        EXPECT_EQ(r.last, last);
+        EXPECT_TRUE(std::equal(text, text + n, r.segment.begin())) << n;
+      }
+    }
+  }
+  for (const bool toggle : {false, true}) {
+    r = decode_sdo_response(sdo_download_segment_ack(5, toggle));
+    EXPECT_EQ(r.type, SdoResponse::Type::kDownloadSegmentAck);
+    EXPECT_EQ(r.toggle, toggle);
+  }
 }
 
 TEST(CanopenPdo, PackAndUnpackWithSignExtension) {

@@ -122,16 +122,14 @@ TEST(SdoClient, SegmentedDownload) {
     auto f = c.poll(now);
     if (!f) continue;
     Frame r;
-    r.id = 0x585;
-    r.len = 8;
     const std::uint8_t ccs = f->data[0] >> 5;
     if (ccs == 1) {
-      r.data[0] = 0x60;  // initiate download response
+      r = sdo_download_ack(5, {0x1008, 0});
     } else if (ccs == 0) {
       ASSERT_EQ(static_cast<bool>(f->data[0] & 0x10), toggle);
       const int n = 7 - ((f->data[0] >> 1) & 7);
       received.append(reinterpret_cast<const char*>(f->data.data() + 1), static_cast<std::size_t>(n));
-      r.data[0] = static_cast<std::uint8_t>(0x20 | (toggle ? 0x10 : 0));
+      r = sdo_download_segment_ack(5, toggle);
       toggle = !toggle;
     }
     c.on_frame(r, now);
@@ -149,17 +147,12 @@ TEST(SdoClient, DownloadToggleErrorSendsTheAbort) {
   Nanos now = kNanosPerMilli;
   auto init = c.poll(now);
   ASSERT_TRUE(init);
-  Frame ack;
-  ack.id = 0x585;
-  ack.len = 8;
-  ack.data[0] = 0x60;  // initiate download response
-  c.on_frame(ack, now);
+  c.on_frame(sdo_download_ack(5, {0x1008, 0}), now);
   auto seg = c.poll(now += kNanosPerMilli);
   ASSERT_TRUE(seg);
   ASSERT_EQ(seg->data[0] >> 5, 0) << "first segment";
   ASSERT_FALSE(seg->data[0] & 0x10) << "first segment has toggle 0";
-  ack.data[0] = 0x20 | 0x10;  // segment ack with toggle 1: wrong
-  c.on_frame(ack, now);
+  c.on_frame(sdo_download_segment_ack(5, true), now);  // toggle 1: wrong
   EXPECT_EQ(c.status(), SdoClient::Status::kFailed);
   EXPECT_EQ(c.abort_code(), abort_code::kToggleBit);
   const auto abort = c.poll(now += kNanosPerMilli);
@@ -177,16 +170,12 @@ TEST(SdoClient, UploadToggleErrorSendsTheAbort) {
   ASSERT_TRUE(c.upload({0x1008, 0}));
   Nanos now = kNanosPerMilli;
   ASSERT_TRUE(c.poll(now));
-  Frame r;
-  r.id = 0x585;
-  r.len = 8;
-  r.data = {0x41, 0x08, 0x10, 0x00, 20, 0, 0, 0};  // segmented upload, 20 bytes
-  c.on_frame(r, now);
+  c.on_frame(sdo_upload_segmented_init(5, {0x1008, 0}, 20), now);
   auto req = c.poll(now += kNanosPerMilli);
   ASSERT_TRUE(req);
   ASSERT_EQ(req->data[0], 0x60) << "upload segment request, toggle 0";
-  r.data = {0x10, 'a', 'b', 'c', 'd', 'e', 'f', 'g'};  // toggle 1: wrong
-  c.on_frame(r, now);
+  const std::uint8_t seven[] = {'a', 'b', 'c', 'd', 'e', 'f', 'g'};
+  c.on_frame(sdo_upload_segment_response(5, true, seven, false), now);  // toggle 1: wrong
   EXPECT_EQ(c.status(), SdoClient::Status::kFailed);
   EXPECT_EQ(c.abort_code(), abort_code::kToggleBit);
   const auto abort = c.poll(now += kNanosPerMilli);
