@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <cstring>
 
+#include "drivers/canopen/object_dictionary.hpp"
+
 namespace cairn::canopen {
 
 const char* phase_name(NodePhase p) {
@@ -86,17 +88,20 @@ bool DriveMaster::next_config(Node& n) {
     std::uint32_t value;
     std::uint8_t size;
   };
+  using namespace od;
+  constexpr std::uint8_t kCount = kPdoMappingCount, kType = kPdoTransmissionType, kSync = kTransmissionEverySync;
   const W steps[] = {
-      {0x1017, 0, cfg_.heartbeat_ms, 2},
-      {0x6060, 0, static_cast<std::uint32_t>(cfg_.mode), 1},
-      {0x1400, 1, 0x80000000u | (0x200 + id), 4}, {0x1600, 0, 0, 1},
-      {0x1600, 1, mapping_entry(0x6040, 0, 16), 4}, {0x1600, 2, mapping_entry(0x60FF, 0, 32), 4},
-      {0x1600, 0, 2, 1}, {0x1400, 2, 1, 1}, {0x1400, 1, 0x200 + id, 4},
-      {0x1800, 1, 0x80000000u | (0x180 + id), 4}, {0x1A00, 0, 0, 1},
-      {0x1A00, 1, mapping_entry(0x6041, 0, 16), 4}, {0x1A00, 2, mapping_entry(0x606C, 0, 32), 4},
-      {0x1A00, 0, 2, 1}, {0x1800, 2, 1, 1}, {0x1800, 1, 0x180 + id, 4},
-      {0x1801, 1, 0x80000000u | (0x280 + id), 4}, {0x1A01, 0, 0, 1},
-      {0x1A01, 1, mapping_entry(0x6064, 0, 32), 4}, {0x1A01, 0, 1, 1}, {0x1801, 2, 1, 1}, {0x1801, 1, 0x280 + id, 4},
+      {kProducerHeartbeat, 0, cfg_.heartbeat_ms, 2},
+      {kModesOfOperation, 0, static_cast<std::uint32_t>(cfg_.mode), 1},
+      {rpdo_communication(0), kPdoCobId, kPdoDisabled | (kCobRpdo[0] + id), 4}, {rpdo_mapping(0), kCount, 0, 1},
+      {rpdo_mapping(0), 1, mapping_entry(kControlword, 0, 16), 4}, {rpdo_mapping(0), 2, mapping_entry(kTargetVelocity, 0, 32), 4},
+      {rpdo_mapping(0), kCount, 2, 1}, {rpdo_communication(0), kType, kSync, 1}, {rpdo_communication(0), kPdoCobId, kCobRpdo[0] + id, 4},
+      {tpdo_communication(0), kPdoCobId, kPdoDisabled | (kCobTpdo[0] + id), 4}, {tpdo_mapping(0), kCount, 0, 1},
+      {tpdo_mapping(0), 1, mapping_entry(kStatusword, 0, 16), 4}, {tpdo_mapping(0), 2, mapping_entry(kVelocityActual, 0, 32), 4},
+      {tpdo_mapping(0), kCount, 2, 1}, {tpdo_communication(0), kType, kSync, 1}, {tpdo_communication(0), kPdoCobId, kCobTpdo[0] + id, 4},
+      {tpdo_communication(1), kPdoCobId, kPdoDisabled | (kCobTpdo[1] + id), 4}, {tpdo_mapping(1), kCount, 0, 1},
+      {tpdo_mapping(1), 1, mapping_entry(kPositionActual, 0, 32), 4}, {tpdo_mapping(1), kCount, 1, 1},
+      {tpdo_communication(1), kType, kSync, 1}, {tpdo_communication(1), kPdoCobId, kCobTpdo[1] + id, 4},
   };
   if (n.config_step >= static_cast<int>(std::size(steps))) return false;
   const W& w = steps[n.config_step];

@@ -18,6 +18,7 @@
 
 #include "drivers/canopen/canopen_codec.hpp"
 #include "drivers/canopen/cia402.hpp"
+#include "drivers/canopen/object_dictionary.hpp"
 
 namespace cairn::hil {
 
@@ -53,7 +54,7 @@ class DriveNode {
   canopen::NmtState nmt() const { return nmt_; }
   double velocity() const { return velocity_; }      // increments/s
   std::int64_t position() const { return static_cast<std::int64_t>(position_); }
-  std::int32_t target_velocity() const { return static_cast<std::int32_t>(od(0x60FF, 0)); }
+  std::int32_t target_velocity() const { return static_cast<std::int32_t>(od(canopen::od::kTargetVelocity, 0)); }
   std::uint64_t syncs() const { return syncs_; }
   /// When the drive last left operation enabled (torque off) on a controlword it received
   /// (RPDO or SDO) or on SYNC loss; 0 = never.
@@ -78,7 +79,7 @@ class DriveNode {
   void send(const canopen::Frame& f) {
     if (!silent_) out_.push_back(f);
   }
-  void send_tpdo(int k);
+  void send_tpdo(unsigned k);  // k = 0: TPDO1
 
   DriveConfig cfg_;
   std::map<std::uint32_t, Entry> od_;  // key: index << 8 | sub

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "drivers/canopen/cia402.hpp"
+#include "drivers/canopen/object_dictionary.hpp"
 
 namespace cairn::canopen {
 namespace {
@@ -218,6 +219,32 @@ TEST(CanopenPdo, PackAndUnpackWithSignExtension) {
   const std::int64_t v3[] = {1, 2, 3};
   EXPECT_FALSE(pack_pdo(too_many, v3, &f));
   EXPECT_EQ(mapping_entry(0x6040, 0, 16), 0x60400010u);
+}
+
+// The named object-dictionary indices are CiA 301 / 402's (pinned here against the
+// standards' tables, ../shared/docs/protocols.md §2.4-2.5).
+TEST(CanopenObjectDictionary, IndicesAreTheCiaValues) {
+  EXPECT_EQ(od::kDeviceType, 0x1000);
+  EXPECT_EQ(od::kErrorRegister, 0x1001);
+  EXPECT_EQ(od::kDeviceName, 0x1008);
+  EXPECT_EQ(od::kProducerHeartbeat, 0x1017);
+  EXPECT_EQ(od::rpdo_communication(0), 0x1400);
+  EXPECT_EQ(od::rpdo_mapping(1), 0x1601);
+  EXPECT_EQ(od::tpdo_communication(1), 0x1801);
+  EXPECT_EQ(od::tpdo_mapping(3), 0x1A03);
+  EXPECT_EQ(od::kPdoDisabled, 0x80000000u);
+  EXPECT_EQ(od::kControlword, 0x6040);
+  EXPECT_EQ(od::kStatusword, 0x6041);
+  EXPECT_EQ(od::kModesOfOperation, 0x6060);
+  EXPECT_EQ(od::kModesOfOperationDisplay, 0x6061);
+  EXPECT_EQ(od::kPositionActual, 0x6064);
+  EXPECT_EQ(od::kVelocityActual, 0x606C);
+  EXPECT_EQ(od::kProfileAcceleration, 0x6083);
+  EXPECT_EQ(od::kProfileDeceleration, 0x6084);
+  EXPECT_EQ(od::kQuickStopDeceleration, 0x6085);
+  EXPECT_EQ(od::kTargetVelocity, 0x60FF);
+  EXPECT_EQ(od::kSupportedDriveModes, 0x6502);
+  EXPECT_EQ(od::drive_modes::kProfileVelocity | od::drive_modes::kCyclicSyncVelocity, 0x0104u);
 }
 
 using namespace cairn::cia402;
