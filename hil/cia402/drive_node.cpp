@@ -26,22 +26,17 @@ void DriveNode::reset_communication() {
   def(od::kDeviceType, 0, 0xFFFF0192, 4, false);  // low word 0x0192: CiA 402
   def(od::kErrorRegister, 0, 0, 1, false);
   def(od::kProducerHeartbeat, 0, 0, 2, true);
-  // RPDO1: controlword + target velocity
-  def(od::rpdo_communication(0), od::kPdoCobId, kCobRpdo[0] + n, 4, true);
-  def(od::rpdo_communication(0), od::kPdoTransmissionType, od::kTransmissionEventDriven, 1, true);
-  def(od::rpdo_mapping(0), od::kPdoMappingCount, 2, 1, true);
-  def(od::rpdo_mapping(0), 1, mapping_entry(od::kControlword, 0, 16), 4, true);
-  def(od::rpdo_mapping(0), 2, mapping_entry(od::kTargetVelocity, 0, 32), 4, true);
-  // TPDO1: statusword + velocity actual; TPDO2: position actual
-  def(od::tpdo_communication(0), od::kPdoCobId, kCobTpdo[0] + n, 4, true);
-  def(od::tpdo_communication(0), od::kPdoTransmissionType, od::kTransmissionEverySync, 1, true);
-  def(od::tpdo_mapping(0), od::kPdoMappingCount, 2, 1, true);
-  def(od::tpdo_mapping(0), 1, mapping_entry(od::kStatusword, 0, 16), 4, true);
-  def(od::tpdo_mapping(0), 2, mapping_entry(od::kVelocityActual, 0, 32), 4, true);
-  def(od::tpdo_communication(1), od::kPdoCobId, kCobTpdo[1] + n, 4, true);
-  def(od::tpdo_communication(1), od::kPdoTransmissionType, od::kTransmissionEverySync, 1, true);
-  def(od::tpdo_mapping(1), od::kPdoMappingCount, 1, 1, true);
-  def(od::tpdo_mapping(1), 1, mapping_entry(od::kPositionActual, 0, 32), 4, true);
+  // The PDOs: this drive's factory mapping is Cairn's (the master remaps them all the same).
+  auto def_pdo = [&](const SdoWrite& w) { def(w.address.index, w.address.sub, w.value, w.size, true); };
+  for (const PdoMapping& m : pdo_map::kDrive) {
+    def_pdo(pdo_cob_id_object(m, n));
+    SdoWrite type = pdo_transmission_type_object(m);
+    // This drive applies an RPDO on arrival, whatever its type: its factory type says so.
+    if (m.direction == PdoDirection::kRpdo) type.value = od::kTransmissionEventDriven;
+    def_pdo(type);
+    def_pdo(pdo_mapping_count_object(m));
+    for (std::size_t i = 0; i < m.count; ++i) def_pdo(pdo_mapping_entry_object(m, i));
+  }
   // CiA 402
   def(od::kControlword, 0, 0, 2, true);
   def(od::kStatusword, 0, 0, 2, false);

@@ -9,6 +9,7 @@
 
 #include "drivers/canopen/cia402.hpp"
 #include "drivers/canopen/object_dictionary.hpp"
+#include "drivers/canopen/pdo_map.hpp"
 
 namespace cairn::canopen {
 namespace {
@@ -245,6 +246,30 @@ TEST(CanopenObjectDictionary, IndicesAreTheCiaValues) {
   EXPECT_EQ(od::kTargetVelocity, 0x60FF);
   EXPECT_EQ(od::kSupportedDriveModes, 0x6502);
   EXPECT_EQ(od::drive_modes::kProfileVelocity | od::drive_modes::kCyclicSyncVelocity, 0x0104u);
+}
+
+// What the master packs and unpacks, from the table.
+TEST(CanopenPdoMap, FieldsSlotsAndCobIds) {
+  const PdoFields tpdo1 = pdo_fields(pdo_map::kTpdo1);
+  ASSERT_EQ(tpdo1.span().size(), 2u);
+  EXPECT_EQ(tpdo1.fields[0].bits, 16);
+  EXPECT_FALSE(tpdo1.fields[0].is_signed);
+  EXPECT_EQ(tpdo1.fields[1].bits, 32);
+  EXPECT_TRUE(tpdo1.fields[1].is_signed);
+  EXPECT_EQ(slot(pdo_map::kTpdo1, od::kVelocityActual), 1u);
+  EXPECT_EQ(slot(pdo_map::kTpdo1, od::kPositionActual), kMaxMappedObjects);  // not in TPDO1
+  EXPECT_EQ(cob_id(pdo_map::kRpdo1, 5), 0x205u);
+  EXPECT_EQ(cob_id(pdo_map::kTpdo2, 5), 0x285u);
+  EXPECT_EQ(mapping_index(pdo_map::kTpdo2), 0x1A01);
+  EXPECT_EQ(communication_index(pdo_map::kRpdo1), 0x1400);
+  // A TPDO1 frame as a drive sends it: statusword 0x0637, velocity -123456.
+  Frame f;
+  f.len = 6;
+  f.data = {0x37, 0x06, 0xC0, 0x1D, 0xFE, 0xFF, 0, 0};
+  std::int64_t v[kMaxMappedObjects] = {};
+  ASSERT_TRUE(unpack_pdo(f, tpdo1.span(), v));
+  EXPECT_EQ(v[slot(pdo_map::kTpdo1, od::kStatusword)], 0x0637);
+  EXPECT_EQ(v[slot(pdo_map::kTpdo1, od::kVelocityActual)], -123456);
 }
 
 using namespace cairn::cia402;
