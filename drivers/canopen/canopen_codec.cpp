@@ -1,5 +1,6 @@
 #include "drivers/canopen/canopen_codec.hpp"
 
+#include <algorithm>
 #include <cstring>
 
 namespace cairn::canopen {
@@ -36,6 +37,23 @@ std::uint32_t get32(const std::uint8_t* p) {
          (static_cast<std::uint32_t>(p[3]) << 24);
 }
 bool standard(const Frame& f) { return is_standard_data_frame(f); }
+// An SDO response frame (server -> client): command byte, index, sub, 4 data bytes.
+Frame sdo_response(std::uint8_t node, std::uint8_t command, SdoAddress a, std::uint32_t data) {
+  Frame f;
+  f.id = kCobSdoTx + node;
+  f.len = 8;
+  f.data[0] = command;
+  put16(f.data.data() + 1, a.index);
+  f.data[3] = a.sub;
+  put32(f.data.data() + 4, data);
+  return f;
+}
+// The command byte of a segment, either direction (the command specifier is 0 for both a
+// download segment request and an upload segment response): toggle in bit 4, the number
+// of unused bytes in bits 3..1, no more segments in bit 0.
+std::uint8_t segment_command(bool toggle, std::size_t n, bool last) {
+  return static_cast<std::uint8_t>((toggle ? 0x10 : 0) | ((7 - n) << 1) | (last ? 1 : 0));
+}
 }  // namespace
 
 Frame nmt(NmtCommand cmd, std::uint8_t node) { return make(kCobNmt, {static_cast<std::uint8_t>(cmd), node}); }
@@ -212,8 +230,34 @@ Frame sdo_download_segment(std::uint8_t node, bool toggle, std::span<const std::
   f.id = kCobSdoRx + node;
   f.len = 8;
   const std::size_t n = chunk.size() > 7 ? 7 : chunk.size();
-  f.data[0] = static_cast<std::uint8_t>((toggle ? 0x10 : 0) | ((7 - n) << 1) | (last ? 1 : 0));
+  f.data[0] = segment_command(toggle, n, last);
   std::memcpy(f.data.data() + 1, chunk.data(), n);
+  return f;
+}
+
+Frame sdo_download_ack(std::uint8_t node, SdoAddress a) { return sdo_response(node, 0x60, a, 0); }
+
+Frame sdo_download_segment_ack(std::uint8_t node, bool toggle) {
+  return sdo_response(node, static_cast<std::uint8_t>(0x20 | (toggle ? 0x10 : 0)), {}, 0);
+}
+
+Frame sdo_upload_expedited(std::uint8_t node, SdoAddress a, std::uint32_t value, std::uint8_t n) {
+  n = std::clamp<std::uint8_t>(n, 1, 4);
+  if (n < 4) value &= (1u << (8 * n)) - 1;  // the unused bytes are zero
+  return sdo_response(node, static_cast<std::uint8_t>(0x43 | ((4 - n) << 2)), a, value);  // expedited, size indicated
+}
+
+Frame sdo_upload_segmented_init(std::uint8_t node, SdoAddress a, std::uint32_t size) {
+  return sdo_response(node, 0x41, a, size);  // not expedited, size indicated
+}
+
+Frame sdo_upload_segment_response(std::uint8_t node, bool toggle, std::span<const std::uint8_t> chunk, bool last) {
+  Frame f;
+  f.id = kCobSdoTx + node;
+  f.len = 8;
+  const std::size_t n = chunk.size() > 7 ? 7 : chunk.size();
+  f.data[0] = segment_command(toggle, n, last);
+  if (n) std::memcpy(f.data.data() + 1, chunk.data(), n);
   return f;
 }
 

@@ -116,6 +116,17 @@ Frame sdo_upload_segment(std::uint8_t node, bool toggle);
 Frame sdo_download_initiate(std::uint8_t node, SdoAddress a, std::uint32_t size);  // segmented, size indicated
 Frame sdo_download_segment(std::uint8_t node, bool toggle, std::span<const std::uint8_t> chunk, bool last);
 
+// Server side: the responses on 0x580 + node that decode_sdo_response reads (an abort is
+// sdo_abort(kCobSdoTx + node, ...)).
+Frame sdo_download_ack(std::uint8_t node, SdoAddress a);  // initiate download response
+Frame sdo_download_segment_ack(std::uint8_t node, bool toggle);
+/// Expedited upload response: the low n bytes of `value` (n = 1..4, clamped), size indicated.
+Frame sdo_upload_expedited(std::uint8_t node, SdoAddress a, std::uint32_t value, std::uint8_t n);
+/// Initiate upload response of a segmented transfer of `size` bytes (size indicated).
+Frame sdo_upload_segmented_init(std::uint8_t node, SdoAddress a, std::uint32_t size);
+/// Upload segment response: up to 7 bytes of `chunk`, toggle t, last = no more segments.
+Frame sdo_upload_segment_response(std::uint8_t node, bool toggle, std::span<const std::uint8_t> chunk, bool last);
+
 struct SdoResponse {
   enum class Type : std::uint8_t {
     kDownloadAck, kUploadExpedited, kUploadSegmentedInit, kUploadSegment, kDownloadSegmentAck, kAbort, kInvalid

@@ -4,7 +4,25 @@
 #include <cstdio>
 #include <cstring>
 
+#include "drivers/canopen/object_dictionary.hpp"
+#include "drivers/canopen/pdo_map.hpp"
+
 namespace cairn::canopen {
+
+namespace {
+// The process data, from the one table: the fields to pack and unpack, and where each value sits.
+constexpr PdoFields kRpdo1Fields = pdo_fields(pdo_map::kRpdo1);
+constexpr PdoFields kTpdo1Fields = pdo_fields(pdo_map::kTpdo1);
+constexpr PdoFields kTpdo2Fields = pdo_fields(pdo_map::kTpdo2);
+constexpr std::size_t kControlwordSlot = slot(pdo_map::kRpdo1, od::kControlword);
+constexpr std::size_t kTargetVelocitySlot = slot(pdo_map::kRpdo1, od::kTargetVelocity);
+constexpr std::size_t kStatuswordSlot = slot(pdo_map::kTpdo1, od::kStatusword);
+constexpr std::size_t kVelocityActualSlot = slot(pdo_map::kTpdo1, od::kVelocityActual);
+constexpr std::size_t kPositionActualSlot = slot(pdo_map::kTpdo2, od::kPositionActual);
+static_assert(kControlwordSlot < kMaxMappedObjects && kTargetVelocitySlot < kMaxMappedObjects && kStatuswordSlot < kMaxMappedObjects &&
+                  kVelocityActualSlot < kMaxMappedObjects && kPositionActualSlot < kMaxMappedObjects,
+              "the master reads and writes these objects: the table must map them");
+}  // namespace
 
 const char* phase_name(NodePhase p) {
   switch (p) {
@@ -75,32 +93,30 @@ void DriveMaster::disable_all(const char* reason) {
 
 void DriveMaster::enable_all() { disabled_ = false; }
 
-// The configuration sequence: heartbeat, mode, RPDO1 (controlword + target velocity),
-// TPDO1 (statusword + velocity actual), TPDO2 (position actual), each PDO remapped by
-// the standard procedure (disable, clear count, entries, count, enable).
+// The configuration sequence: heartbeat, mode, then every PDO of pdo_map::kDrive in
+// order, each remapped by the standard procedure (remap_write: disable, clear count,
+// entries, count, transmission type, enable).
 bool DriveMaster::next_config(Node& n) {
-  const std::uint32_t id = n.id;
-  struct W {
-    std::uint16_t index;
-    std::uint8_t sub;
-    std::uint32_t value;
-    std::uint8_t size;
-  };
-  const W steps[] = {
-      {0x1017, 0, cfg_.heartbeat_ms, 2},
-      {0x6060, 0, static_cast<std::uint32_t>(cfg_.mode), 1},
-      {0x1400, 1, 0x80000000u | (0x200 + id), 4}, {0x1600, 0, 0, 1},
-      {0x1600, 1, mapping_entry(0x6040, 0, 16), 4}, {0x1600, 2, mapping_entry(0x60FF, 0, 32), 4},
-      {0x1600, 0, 2, 1}, {0x1400, 2, 1, 1}, {0x1400, 1, 0x200 + id, 4},
-      {0x1800, 1, 0x80000000u | (0x180 + id), 4}, {0x1A00, 0, 0, 1},
-      {0x1A00, 1, mapping_entry(0x6041, 0, 16), 4}, {0x1A00, 2, mapping_entry(0x606C, 0, 32), 4},
-      {0x1A00, 0, 2, 1}, {0x1800, 2, 1, 1}, {0x1800, 1, 0x180 + id, 4},
-      {0x1801, 1, 0x80000000u | (0x280 + id), 4}, {0x1A01, 0, 0, 1},
-      {0x1A01, 1, mapping_entry(0x6064, 0, 32), 4}, {0x1A01, 0, 1, 1}, {0x1801, 2, 1, 1}, {0x1801, 1, 0x280 + id, 4},
-  };
-  if (n.config_step >= static_cast<int>(std::size(steps))) return false;
-  const W& w = steps[n.config_step];
-  n.sdo.download_u32({w.index, w.sub}, w.value, w.size);
+  SdoWrite w;
+  std::size_t step = static_cast<std::size_t>(n.config_step);
+  if (step == 0) {
+    w = {{od::kProducerHeartbeat, 0}, cfg_.heartbeat_ms, 2};
+  } else if (step == 1) {
+    w = {{od::kModesOfOperation, 0}, static_cast<std::uint32_t>(cfg_.mode), 1};
+  } else {
+    step -= 2;
+    const PdoMapping* pdo = nullptr;
+    for (const PdoMapping& m : pdo_map::kDrive) {
+      if (step < remap_writes(m)) {
+        pdo = &m;
+        break;
+      }
+      step -= remap_writes(m);
+    }
+    if (!pdo) return false;  // configured
+    w = remap_write(*pdo, n.id, step);
+  }
+  n.sdo.download_u32(w.address, w.value, w.size);
   return true;
 }
 
@@ -145,15 +161,15 @@ void DriveMaster::dispatch(const can::Frame& f, Nanos now) {
         }
         break;
       case Kind::kTpdo: {
-        if (c.pdo == 0 && f.len >= 6) {
-          n.feedback.statusword = static_cast<std::uint16_t>(f.data[0] | (f.data[1] << 8));
-          n.feedback.velocity = static_cast<std::int32_t>(static_cast<std::uint32_t>(f.data[2]) | (static_cast<std::uint32_t>(f.data[3]) << 8) |
-                                                          (static_cast<std::uint32_t>(f.data[4]) << 16) | (static_cast<std::uint32_t>(f.data[5]) << 24));
+        // Unpacked by the table (a frame shorter than its mapping is refused).
+        std::int64_t v[kMaxMappedObjects] = {};
+        if (c.pdo == pdo_map::kTpdo1.pdo && unpack_pdo(f, kTpdo1Fields.span(), v)) {
+          n.feedback.statusword = static_cast<std::uint16_t>(v[kStatuswordSlot]);
+          n.feedback.velocity = static_cast<std::int32_t>(v[kVelocityActualSlot]);
           n.feedback.stamp = f.stamp;
           ++n.feedback.updates;
-        } else if (c.pdo == 1 && f.len >= 4) {
-          n.feedback.position = static_cast<std::int32_t>(static_cast<std::uint32_t>(f.data[0]) | (static_cast<std::uint32_t>(f.data[1]) << 8) |
-                                                          (static_cast<std::uint32_t>(f.data[2]) << 16) | (static_cast<std::uint32_t>(f.data[3]) << 24));
+        } else if (c.pdo == pdo_map::kTpdo2.pdo && unpack_pdo(f, kTpdo2Fields.span(), v)) {
+          n.feedback.position = static_cast<std::int32_t>(v[kPositionActualSlot]);
         }
         break;
       }
@@ -249,10 +265,11 @@ void DriveMaster::send_sync_cycle(Nanos now) {
     }
     n.sent_velocity = go ? n.target : 0;
     Frame f;
-    const PdoField fields[] = {{16, false}, {32, true}};
-    const std::int64_t values[] = {cw, n.sent_velocity};
-    pack_pdo(fields, values, &f);
-    f.id = kCobRpdo[0] + n.id;
+    std::int64_t values[kMaxMappedObjects] = {};
+    values[kControlwordSlot] = cw;
+    values[kTargetVelocitySlot] = n.sent_velocity;
+    pack_pdo(kRpdo1Fields.span(), values, &f);
+    f.id = cob_id(pdo_map::kRpdo1, n.id);
     send(f);
     n.last_cw = cw;
   }

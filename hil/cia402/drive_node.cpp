@@ -10,6 +10,11 @@ using cia402::State;
 
 namespace {
 constexpr std::uint32_t key(std::uint16_t index, std::uint8_t sub) { return (static_cast<std::uint32_t>(index) << 8) | sub; }
+// The modes of operation this drive accepts (0x6060): none, profile velocity, cyclic synchronous velocity.
+bool supported_mode(std::uint32_t v) {
+  return v == static_cast<std::uint32_t>(cia402::Mode::kNone) || v == static_cast<std::uint32_t>(cia402::Mode::kProfileVelocity) ||
+         v == static_cast<std::uint32_t>(cia402::Mode::kCyclicSyncVelocity);
+}
 }  // namespace
 
 DriveNode::DriveNode(DriveConfig cfg) : cfg_(std::move(cfg)) { reset_communication(); }
@@ -18,37 +23,32 @@ void DriveNode::reset_communication() {
   const std::uint8_t n = cfg_.node;
   od_.clear();
   auto def = [&](std::uint16_t i, std::uint8_t s, std::uint32_t v, std::uint8_t size, bool w) { od_[key(i, s)] = {v, size, w}; };
-  def(0x1000, 0, 0xFFFF0192, 4, false);  // device type: CiA 402
-  def(0x1001, 0, 0, 1, false);           // error register
-  def(0x1017, 0, 0, 2, true);            // producer heartbeat time (ms)
-  // RPDO1: controlword + target velocity
-  def(0x1400, 1, 0x200u + n, 4, true);
-  def(0x1400, 2, 255, 1, true);
-  def(0x1600, 0, 2, 1, true);
-  def(0x1600, 1, mapping_entry(0x6040, 0, 16), 4, true);
-  def(0x1600, 2, mapping_entry(0x60FF, 0, 32), 4, true);
-  // TPDO1: statusword + velocity actual; TPDO2: position actual
-  def(0x1800, 1, 0x180u + n, 4, true);
-  def(0x1800, 2, 1, 1, true);
-  def(0x1A00, 0, 2, 1, true);
-  def(0x1A00, 1, mapping_entry(0x6041, 0, 16), 4, true);
-  def(0x1A00, 2, mapping_entry(0x606C, 0, 32), 4, true);
-  def(0x1801, 1, 0x280u + n, 4, true);
-  def(0x1801, 2, 1, 1, true);
-  def(0x1A01, 0, 1, 1, true);
-  def(0x1A01, 1, mapping_entry(0x6064, 0, 32), 4, true);
+  def(od::kDeviceType, 0, 0xFFFF0192, 4, false);  // low word 0x0192: CiA 402
+  def(od::kErrorRegister, 0, 0, 1, false);
+  def(od::kProducerHeartbeat, 0, 0, 2, true);
+  // The PDOs: this drive's factory mapping is Cairn's (the master remaps them all the same).
+  auto def_pdo = [&](const SdoWrite& w) { def(w.address.index, w.address.sub, w.value, w.size, true); };
+  for (const PdoMapping& m : pdo_map::kDrive) {
+    def_pdo(pdo_cob_id_object(m, n));
+    SdoWrite type = pdo_transmission_type_object(m);
+    // This drive applies an RPDO on arrival, whatever its type: its factory type says so.
+    if (m.direction == PdoDirection::kRpdo) type.value = od::kTransmissionEventDriven;
+    def_pdo(type);
+    def_pdo(pdo_mapping_count_object(m));
+    for (std::size_t i = 0; i < m.count; ++i) def_pdo(pdo_mapping_entry_object(m, i));
+  }
   // CiA 402
-  def(0x6040, 0, 0, 2, true);        // controlword
-  def(0x6041, 0, 0, 2, false);       // statusword
-  def(0x6060, 0, 0, 1, true);        // modes of operation
-  def(0x6061, 0, 0, 1, false);       // modes of operation display
-  def(0x6064, 0, 0, 4, false);       // position actual
-  def(0x606C, 0, 0, 4, false);       // velocity actual
-  def(0x6083, 0, 400000, 4, true);   // profile acceleration (increments/s²)
-  def(0x6084, 0, 400000, 4, true);   // profile deceleration
-  def(0x6085, 0, 2000000, 4, true);  // quick stop deceleration
-  def(0x60FF, 0, 0, 4, true);        // target velocity
-  def(0x6502, 0, 0x0104, 4, false);  // supported modes: pv, csv
+  def(od::kControlword, 0, 0, 2, true);
+  def(od::kStatusword, 0, 0, 2, false);
+  def(od::kModesOfOperation, 0, 0, 1, true);
+  def(od::kModesOfOperationDisplay, 0, 0, 1, false);
+  def(od::kPositionActual, 0, 0, 4, false);
+  def(od::kVelocityActual, 0, 0, 4, false);
+  def(od::kProfileAcceleration, 0, 400000, 4, true);  // increments/s²
+  def(od::kProfileDeceleration, 0, 400000, 4, true);
+  def(od::kQuickStopDeceleration, 0, 2000000, 4, true);
+  def(od::kTargetVelocity, 0, 0, 4, true);
+  def(od::kSupportedDriveModes, 0, od::drive_modes::kProfileVelocity | od::drive_modes::kCyclicSyncVelocity, 4, false);
 }
 
 std::uint32_t DriveNode::od(std::uint16_t index, std::uint8_t sub) const {
@@ -84,7 +84,8 @@ std::uint16_t DriveNode::statusword() const {
   }
   if (state_ != State::kNotReadyToSwitchOn && state_ != State::kSwitchOnDisabled && state_ != State::kFault) sw |= 0x0010;  // voltage
   sw |= 0x0200;                                                                     // remote
-  if (std::abs(velocity_ - static_cast<double>(static_cast<std::int32_t>(od(0x60FF, 0)))) < 100) sw |= 0x0400;  // target reached
+  const auto target = static_cast<std::int32_t>(od(od::kTargetVelocity, 0));
+  if (std::abs(velocity_ - static_cast<double>(target)) < 100) sw |= 0x0400;  // target reached
   return sw;
 }
 
@@ -98,7 +99,7 @@ void DriveNode::handle_controlword(std::uint16_t cw) {
   if (state_ == State::kFault) {
     if (reset_edge) {
       state_ = State::kSwitchOnDisabled;
-      set_od(0x1001, 0, 0);
+      set_od(od::kErrorRegister, 0, 0);
       send(encode_emcy(cfg_.node, 0x0000, 0));  // error reset
     }
     return;
@@ -131,7 +132,8 @@ void DriveNode::handle_controlword(std::uint16_t cw) {
 
 void DriveNode::inject_garbage(std::size_t n, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
-  const std::uint32_t own[] = {0x180u + cfg_.node, 0x280u + cfg_.node, 0x700u + cfg_.node, 0x080u + cfg_.node, 0x580u + cfg_.node};
+  const std::uint32_t own[] = {kCobTpdo[0] + cfg_.node, kCobTpdo[1] + cfg_.node, kCobHeartbeat + cfg_.node, kCobEmcy + cfg_.node,
+                               kCobSdoTx + cfg_.node};
   for (std::size_t i = 0; i < n; ++i) {
     Frame f;
     if (i % 2) {
@@ -140,7 +142,7 @@ void DriveNode::inject_garbage(std::size_t n, std::uint64_t seed) {
     } else {
       f.id = own[rng() % 5];
       f.len = static_cast<std::uint8_t>(1 + rng() % 3);  // too short for any of them (SDO 8, EMCY 8, TPDO 4/6)
-      if (f.id == 0x700u + cfg_.node) f.len = 3;         // a heartbeat is exactly 1 byte
+      if (f.id == kCobHeartbeat + cfg_.node) f.len = 3;  // a heartbeat is exactly 1 byte
     }
     for (auto& b : f.data) b = static_cast<std::uint8_t>(rng());
     send(f);
@@ -150,46 +152,34 @@ void DriveNode::inject_garbage(std::size_t n, std::uint64_t seed) {
 void DriveNode::over_current(Nanos now) {
   (void)now;
   state_ = State::kFault;
-  set_od(0x1001, 0, 0x03);  // generic + current
-  send(encode_emcy(cfg_.node, 0x2310, 0x03));
+  const std::uint8_t error_register = od::error_register::kGeneric | od::error_register::kCurrent;
+  set_od(od::kErrorRegister, 0, error_register);
+  send(encode_emcy(cfg_.node, 0x2310, error_register));  // output current
 }
 
 void DriveNode::handle_sdo(const Frame& f) {
   const std::uint8_t cmd = f.data[0];
   const SdoAddress a{static_cast<std::uint16_t>(f.data[1] | (f.data[2] << 8)), f.data[3]};
-  const std::uint32_t abort_cob = kCobSdoTx + cfg_.node;
-  auto respond = [&](std::uint8_t c, std::uint32_t v) {
-    Frame r;
-    r.id = abort_cob;
-    r.len = 8;
-    r.data[0] = c;
-    r.data[1] = f.data[1];
-    r.data[2] = f.data[2];
-    r.data[3] = f.data[3];
-    for (int i = 0; i < 4; ++i) r.data[4 + i] = static_cast<std::uint8_t>(v >> (8 * i));
-    send(r);
-  };
+  const std::uint8_t node = cfg_.node;
+  const std::uint32_t abort_cob = kCobSdoTx + node;
   const std::uint8_t ccs = cmd >> 5;
   if (ccs == 3) {  // upload segment request (device name)
     if (upload_.empty()) return send(sdo_abort(abort_cob, {}, abort_code::kCommand));
     if (static_cast<bool>(cmd & 0x10) != upload_toggle_) return send(sdo_abort(abort_cob, {}, abort_code::kToggleBit));
     const std::size_t n = std::min<std::size_t>(7, upload_.size() - upload_off_);
     const bool last = upload_off_ + n >= upload_.size();
-    Frame r;
-    r.id = abort_cob;
-    r.len = 8;
-    r.data[0] = static_cast<std::uint8_t>((upload_toggle_ ? 0x10 : 0) | ((7 - n) << 1) | (last ? 1 : 0));
-    std::copy_n(upload_.begin() + static_cast<long>(upload_off_), n, r.data.begin() + 1);
+    const auto* chunk = reinterpret_cast<const std::uint8_t*>(upload_.data() + upload_off_);
+    send(sdo_upload_segment_response(node, upload_toggle_, {chunk, n}, last));
     upload_off_ += n;
     upload_toggle_ = !upload_toggle_;
     if (last) upload_.clear();
-    return send(r);
+    return;
   }
-  if (a.index == 0x1008 && ccs == 2) {  // device name: segmented upload
+  if (a.index == od::kDeviceName && ccs == 2) {  // segmented upload
     upload_ = cfg_.name;
     upload_off_ = 0;
     upload_toggle_ = false;
-    return respond(0x41, static_cast<std::uint32_t>(upload_.size()));
+    return send(sdo_upload_segmented_init(node, a, static_cast<std::uint32_t>(upload_.size())));
   }
   auto it = od_.find(key(a.index, a.sub));
   if (it == od_.end()) {
@@ -197,9 +187,8 @@ void DriveNode::handle_sdo(const Frame& f) {
     return send(sdo_abort(abort_cob, a, index_exists ? abort_code::kSubUnknown : abort_code::kNotExist));
   }
   if (ccs == 2) {  // initiate upload
-    const std::uint8_t n = it->second.size;
-    if (a.index == 0x6041) it->second.value = statusword();
-    return respond(static_cast<std::uint8_t>(0x43 | ((4 - n) << 2)), it->second.value);
+    if (a.index == od::kStatusword) it->second.value = statusword();
+    return send(sdo_upload_expedited(node, a, it->second.value, it->second.size));
   }
   if (ccs == 1) {  // initiate download (expedited only)
     if (!(cmd & 0x02)) return send(sdo_abort(abort_cob, a, abort_code::kUnsupportedAccess));
@@ -208,27 +197,27 @@ void DriveNode::handle_sdo(const Frame& f) {
     if (n != it->second.size) return send(sdo_abort(abort_cob, a, abort_code::kTypeMismatch));
     std::uint32_t v = 0;
     for (int i = 0; i < n; ++i) v |= static_cast<std::uint32_t>(f.data[4 + i]) << (8 * i);
-    if (a.index == 0x6060 && v != 3 && v != 9 && v != 0) return send(sdo_abort(abort_cob, a, abort_code::kInvalidValue));
+    if (a.index == od::kModesOfOperation && !supported_mode(v)) return send(sdo_abort(abort_cob, a, abort_code::kInvalidValue));
     it->second.value = v;
-    if (a.index == 0x6040) handle_controlword(static_cast<std::uint16_t>(v));
-    if (a.index == 0x6060) set_od(0x6061, 0, v);
-    return respond(0x60, 0);
+    if (a.index == od::kControlword) handle_controlword(static_cast<std::uint16_t>(v));
+    if (a.index == od::kModesOfOperation) set_od(od::kModesOfOperationDisplay, 0, v);
+    return send(sdo_download_ack(node, a));
   }
   send(sdo_abort(abort_cob, a, abort_code::kCommand));
 }
 
-void DriveNode::send_tpdo(int k) {
-  const std::uint32_t cob = od(static_cast<std::uint16_t>(0x1800 + k), 1);
-  if (cob & 0x80000000u) return;  // disabled
+void DriveNode::send_tpdo(unsigned k) {
+  const std::uint32_t cob = od(od::tpdo_communication(k), od::kPdoCobId);
+  if (cob & od::kPdoDisabled) return;
   Frame f;
   f.id = cob & 0x7FF;
   std::size_t byte = 0;
-  const std::uint32_t count = od(static_cast<std::uint16_t>(0x1A00 + k), 0);
+  const std::uint32_t count = od(od::tpdo_mapping(k), od::kPdoMappingCount);
   for (std::uint32_t i = 1; i <= count && i <= 8; ++i) {
-    const std::uint32_t m = od(static_cast<std::uint16_t>(0x1A00 + k), static_cast<std::uint8_t>(i));
+    const std::uint32_t m = od(od::tpdo_mapping(k), static_cast<std::uint8_t>(i));
     const std::uint16_t index = static_cast<std::uint16_t>(m >> 16);
     const std::uint8_t sub = static_cast<std::uint8_t>(m >> 8), bits = static_cast<std::uint8_t>(m);
-    std::uint32_t v = index == 0x6041 ? statusword() : od(index, sub);
+    std::uint32_t v = index == od::kStatusword ? statusword() : od(index, sub);
     for (std::size_t b = 0; b < bits / 8u && byte < 8; ++b) f.data[byte++] = static_cast<std::uint8_t>(v >> (8 * b));
   }
   f.len = static_cast<std::uint8_t>(byte);
@@ -257,31 +246,31 @@ void DriveNode::on_frame(const Frame& f, Nanos now) {
     ++syncs_;
     last_sync_ = now;
     sync_lost_ = false;
-    set_od(0x6064, 0, static_cast<std::uint32_t>(static_cast<std::int32_t>(std::llround(position_))));
-    set_od(0x606C, 0, static_cast<std::uint32_t>(static_cast<std::int32_t>(std::lround(velocity_))));
-    for (int k = 0; k < 2; ++k) {
-      if (od(static_cast<std::uint16_t>(0x1800 + k), 2) == 1) send_tpdo(k);
+    set_od(od::kPositionActual, 0, static_cast<std::uint32_t>(static_cast<std::int32_t>(std::llround(position_))));
+    set_od(od::kVelocityActual, 0, static_cast<std::uint32_t>(static_cast<std::int32_t>(std::lround(velocity_))));
+    for (unsigned k = 0; k < std::size(kCobTpdo); ++k) {  // a TPDO this drive lacks reads type 0: not sent
+      if (od(od::tpdo_communication(k), od::kPdoTransmissionType) == od::kTransmissionEverySync) send_tpdo(k);
     }
     return;
   }
   if (c.kind == Kind::kRpdo && c.node == cfg_.node && c.pdo == 0) {
     const State before = state_;
-    const std::uint32_t target_before = od(0x60FF, 0);
+    const std::uint32_t target_before = od(od::kTargetVelocity, 0);
     handle_rpdo1(f);
     if (before == State::kOperationEnabled && state_ != State::kOperationEnabled) torque_off_at_ = now;
-    if (target_before != 0 && od(0x60FF, 0) == 0) zero_target_at_ = now;
+    if (target_before != 0 && od(od::kTargetVelocity, 0) == 0) zero_target_at_ = now;
   }
 }
 
 void DriveNode::handle_rpdo1(const Frame& f) {
   {
-    const std::uint32_t cob = od(0x1400, 1);
-    if (cob & 0x80000000u) return;
-    // Unpack by the RPDO1 mapping.
+    const std::uint32_t cob = od(od::rpdo_communication(0), od::kPdoCobId);
+    if (cob & od::kPdoDisabled) return;
+    // Unpack by the RPDO1 mapping in this drive's object dictionary (as the master wrote it).
     std::size_t byte = 0;
-    const std::uint32_t count = od(0x1600, 0);
+    const std::uint32_t count = od(od::rpdo_mapping(0), od::kPdoMappingCount);
     for (std::uint32_t i = 1; i <= count && i <= 8; ++i) {
-      const std::uint32_t m = od(0x1600, static_cast<std::uint8_t>(i));
+      const std::uint32_t m = od(od::rpdo_mapping(0), static_cast<std::uint8_t>(i));
       const std::uint16_t index = static_cast<std::uint16_t>(m >> 16);
       const std::uint8_t sub = static_cast<std::uint8_t>(m >> 8), bits = static_cast<std::uint8_t>(m);
       if (byte + bits / 8u > f.len) return;  // short frame: ignore it
@@ -289,7 +278,7 @@ void DriveNode::handle_rpdo1(const Frame& f) {
       for (std::size_t b = 0; b < bits / 8u; ++b) v |= static_cast<std::uint32_t>(f.data[byte + b]) << (8 * b);
       byte += bits / 8u;
       set_od(index, sub, v);
-      if (index == 0x6040) handle_controlword(static_cast<std::uint16_t>(v));
+      if (index == od::kControlword) handle_controlword(static_cast<std::uint16_t>(v));
     }
   }
 }
@@ -308,24 +297,24 @@ void DriveNode::update(Nanos now) {
     return;
   }
   // Motor: follow the target within the acceleration limit while enabled; otherwise stop.
-  double target = 0, accel = static_cast<double>(od(0x6084, 0));
+  double target = 0, accel = static_cast<double>(od(od::kProfileDeceleration, 0));
   // Sync loss (the master went quiet): stop rather than run on at the last command.
   if (cfg_.sync_loss_s > 0 && nmt_ == NmtState::kOperational && syncs_ > 0 &&
       now - last_sync_ > static_cast<Nanos>(cfg_.sync_loss_s * 1e9)) {
     sync_lost_ = true;
   }
   if (state_ == State::kOperationEnabled && !(last_cw_ & cia402::cw::kHalt) && !sync_lost_) {
-    target = std::clamp(static_cast<double>(static_cast<std::int32_t>(od(0x60FF, 0))), -static_cast<double>(cfg_.max_velocity),
-                        static_cast<double>(cfg_.max_velocity));
-    accel = static_cast<double>(od(0x6083, 0));
+    const auto max = static_cast<double>(cfg_.max_velocity);
+    target = std::clamp(static_cast<double>(static_cast<std::int32_t>(od(od::kTargetVelocity, 0))), -max, max);
+    accel = static_cast<double>(od(od::kProfileAcceleration, 0));
   } else if (state_ == State::kQuickStopActive) {
-    accel = static_cast<double>(od(0x6085, 0));
+    accel = static_cast<double>(od(od::kQuickStopDeceleration, 0));
   }
   const double dv = std::clamp(target - velocity_, -accel * dt, accel * dt);
   velocity_ += dv;
   position_ += velocity_ * dt;
   // Heartbeat producer.
-  const std::uint32_t hb_ms = od(0x1017, 0);
+  const std::uint32_t hb_ms = od(od::kProducerHeartbeat, 0);
   if (hb_ms > 0 && now >= next_heartbeat_) {
     send(heartbeat(cfg_.node, nmt_));
     next_heartbeat_ = now + static_cast<Nanos>(hb_ms) * kNanosPerMilli;

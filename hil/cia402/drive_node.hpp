@@ -1,10 +1,11 @@
 // An emulated CiA 402 servo drive on CANopen: object dictionary with an SDO server
 // (expedited; segmented upload of the device name), NMT (boot-up, pre-operational,
 // operational, reset), heartbeat producer (0x1017), PDOs mapped through the object
-// dictionary (0x1400/0x1600 RPDO1, 0x1800/0x1A00 TPDO1, 0x1801/0x1A01 TPDO2) exchanged
-// on SYNC, EMCY, and the 402 power state machine driven by the controlword. In
-// operation enabled the motor follows the target velocity (0x60FF, increments/s) within
-// the profile acceleration (0x6083) and integrates the encoder position (0x6064).
+// dictionary (0x1400/0x1600 RPDO1, 0x1800/0x1A00 TPDO1, 0x1801/0x1A01 TPDO2; factory
+// mapping: canopen::pdo_map::kDrive, the master's) exchanged on SYNC, EMCY, and the
+// 402 power state machine driven by the controlword. In operation enabled the motor
+// follows the target velocity (0x60FF, increments/s) within the profile acceleration
+// (0x6083) and integrates the encoder position (0x6064).
 // Pure model: frames and time in, frames out (a runner connects it to a CAN port).
 // Faults: over-current (EMCY 0x2310, fault until reset), silence, the HALT-bit quirk.
 #pragma once
@@ -18,6 +19,8 @@
 
 #include "drivers/canopen/canopen_codec.hpp"
 #include "drivers/canopen/cia402.hpp"
+#include "drivers/canopen/object_dictionary.hpp"
+#include "drivers/canopen/pdo_map.hpp"
 
 namespace cairn::hil {
 
@@ -53,8 +56,11 @@ class DriveNode {
   canopen::NmtState nmt() const { return nmt_; }
   double velocity() const { return velocity_; }      // increments/s
   std::int64_t position() const { return static_cast<std::int64_t>(position_); }
-  std::int32_t target_velocity() const { return static_cast<std::int32_t>(od(0x60FF, 0)); }
+  std::int32_t target_velocity() const { return static_cast<std::int32_t>(od(canopen::od::kTargetVelocity, 0)); }
   std::uint64_t syncs() const { return syncs_; }
+  /// An object's value (0 if the drive has no such object), as an SDO upload would read it
+  /// (except the statusword, which is refreshed only when read or sent).
+  std::uint32_t od(std::uint16_t index, std::uint8_t sub) const;
   /// When the drive last left operation enabled (torque off) on a controlword it received
   /// (RPDO or SDO) or on SYNC loss; 0 = never.
   Nanos torque_off_at() const { return torque_off_at_; }
@@ -68,7 +74,6 @@ class DriveNode {
     std::uint8_t size = 4;   // bytes
     bool writable = true;
   };
-  std::uint32_t od(std::uint16_t index, std::uint8_t sub) const;
   void set_od(std::uint16_t index, std::uint8_t sub, std::uint32_t v);
   void reset_communication();
   void handle_sdo(const canopen::Frame& f);
@@ -78,7 +83,7 @@ class DriveNode {
   void send(const canopen::Frame& f) {
     if (!silent_) out_.push_back(f);
   }
-  void send_tpdo(int k);
+  void send_tpdo(unsigned k);  // k = 0: TPDO1
 
   DriveConfig cfg_;
   std::map<std::uint32_t, Entry> od_;  // key: index << 8 | sub

@@ -4,9 +4,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <vector>
 
 #include "drivers/canopen/cia402.hpp"
+#include "drivers/canopen/object_dictionary.hpp"
+#include "drivers/canopen/pdo_map.hpp"
 
 namespace cairn::canopen {
 namespace {
@@ -142,6 +145,64 @@ TEST(CanopenSdo, SegmentedRequests) {
   EXPECT_EQ(bytes(sdo_download_segment(1, true, chunk, true)), (std::vector<int>{0x19, 'a', 'b', 'c', 0, 0, 0, 0}));
 }
 
+// The server's responses (what the emulated drive sends) against CiA 301's command bytes.
+TEST(CanopenSdo, ServerResponsesAreByteExact) {
+  EXPECT_EQ(sdo_download_ack(1, {0x6040, 0}).id, 0x581u);
+  EXPECT_EQ(bytes(sdo_download_ack(1, {0x6040, 0})), (std::vector<int>{0x60, 0x40, 0x60, 0x00, 0, 0, 0, 0}));
+  // Expedited upload, size indicated: 0x43 | (4 - n) << 2, the unused bytes zero.
+  EXPECT_EQ(bytes(sdo_upload_expedited(1, {0x1000, 0}, 0xFFFF0192, 4)), (std::vector<int>{0x43, 0x00, 0x10, 0x00, 0x92, 0x01, 0xFF, 0xFF}));
+  EXPECT_EQ(bytes(sdo_upload_expedited(1, {0x1A00, 1}, 0x606C0020, 3)), (std::vector<int>{0x47, 0x00, 0x1A, 0x01, 0x20, 0x00, 0x6C, 0}));
+  EXPECT_EQ(bytes(sdo_upload_expedited(1, {0x6041, 0}, 0x0237, 2)), (std::vector<int>{0x4B, 0x41, 0x60, 0x00, 0x37, 0x02, 0, 0}));
+  EXPECT_EQ(bytes(sdo_upload_expedited(1, {0x6061, 0}, 0xAB09, 1)), (std::vector<int>{0x4F, 0x61, 0x60, 0x00, 0x09, 0, 0, 0}));
+  EXPECT_EQ(bytes(sdo_upload_segmented_init(2, {0x1008, 0}, 28)), (std::vector<int>{0x41, 0x08, 0x10, 0x00, 28, 0, 0, 0}));
+  EXPECT_EQ(sdo_upload_segmented_init(2, {0x1008, 0}, 28).id, 0x582u);
+  const std::uint8_t seven[] = {'C', 'a', 'i', 'r', 'n', ' ', 'e'}, one[] = {'x'};
+  EXPECT_EQ(bytes(sdo_upload_segment_response(1, false, seven, false)), (std::vector<int>{0x00, 'C', 'a', 'i', 'r', 'n', ' ', 'e'}));
+  EXPECT_EQ(bytes(sdo_upload_segment_response(1, true, one, true)), (std::vector<int>{0x1D, 'x', 0, 0, 0, 0, 0, 0}));  // 6 unused, last
+  EXPECT_EQ(bytes(sdo_download_segment_ack(1, false)), (std::vector<int>{0x20, 0, 0, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(bytes(sdo_download_segment_ack(1, true)), (std::vector<int>{0x30, 0, 0, 0, 0, 0, 0, 0}));
+}
+
+// Each server response decodes (as the client reads it) to what it was built from.
+TEST(CanopenSdo, ServerResponsesRoundTrip) {
+  const SdoAddress a{0x1A01, 1};
+  SdoResponse r = decode_sdo_response(sdo_download_ack(5, a));
+  EXPECT_EQ(r.type, SdoResponse::Type::kDownloadAck);
+  EXPECT_EQ(r.address.index, a.index);
+  EXPECT_EQ(r.address.sub, a.sub);
+  for (std::uint8_t n = 1; n <= 4; ++n) {
+    const std::uint32_t value = 0xDEADBEEF;
+    r = decode_sdo_response(sdo_upload_expedited(5, a, value, n));
+    EXPECT_EQ(r.type, SdoResponse::Type::kUploadExpedited) << int{n};
+    EXPECT_EQ(r.size, n);
+    EXPECT_EQ(r.value, n == 4 ? value : value & ((1u << (8 * n)) - 1)) << int{n};
+    EXPECT_EQ(r.address.index, a.index);
+    EXPECT_EQ(r.address.sub, a.sub);
+  }
+  r = decode_sdo_response(sdo_upload_segmented_init(5, {0x1008, 0}, 300));
+  EXPECT_EQ(r.type, SdoResponse::Type::kUploadSegmentedInit);
+  EXPECT_EQ(r.value, 300u);
+  EXPECT_EQ(r.address.index, 0x1008);
+  const std::uint8_t text[] = {1, 2, 3, 4, 5, 6, 7};
+  for (std::size_t n = 1; n <= 7; ++n) {
+    for (const bool toggle : {false, true}) {
+      for (const bool last : {false, true}) {
+        r = decode_sdo_response(sdo_upload_segment_response(5, toggle, {text, n}, last));
+        EXPECT_EQ(r.type, SdoResponse::Type::kUploadSegment);
+        EXPECT_EQ(r.size, n);
+        EXPECT_EQ(r.toggle, toggle);
+        EXPECT_EQ(r.last, last);
+        EXPECT_TRUE(std::equal(text, text + n, r.segment.begin())) << n;
+      }
+    }
+  }
+  for (const bool toggle : {false, true}) {
+    r = decode_sdo_response(sdo_download_segment_ack(5, toggle));
+    EXPECT_EQ(r.type, SdoResponse::Type::kDownloadSegmentAck);
+    EXPECT_EQ(r.toggle, toggle);
+  }
+}
+
 TEST(CanopenPdo, PackAndUnpackWithSignExtension) {
   const PdoField fields[] = {{16, false}, {32, true}, {8, true}};
   const std::int64_t in[] = {0x1237, -123456, -5};
@@ -159,6 +220,56 @@ TEST(CanopenPdo, PackAndUnpackWithSignExtension) {
   const std::int64_t v3[] = {1, 2, 3};
   EXPECT_FALSE(pack_pdo(too_many, v3, &f));
   EXPECT_EQ(mapping_entry(0x6040, 0, 16), 0x60400010u);
+}
+
+// The named object-dictionary indices are CiA 301 / 402's (pinned here against the
+// standards' tables, ../shared/docs/protocols.md §2.4-2.5).
+TEST(CanopenObjectDictionary, IndicesAreTheCiaValues) {
+  EXPECT_EQ(od::kDeviceType, 0x1000);
+  EXPECT_EQ(od::kErrorRegister, 0x1001);
+  EXPECT_EQ(od::kDeviceName, 0x1008);
+  EXPECT_EQ(od::kProducerHeartbeat, 0x1017);
+  EXPECT_EQ(od::rpdo_communication(0), 0x1400);
+  EXPECT_EQ(od::rpdo_mapping(1), 0x1601);
+  EXPECT_EQ(od::tpdo_communication(1), 0x1801);
+  EXPECT_EQ(od::tpdo_mapping(3), 0x1A03);
+  EXPECT_EQ(od::kPdoDisabled, 0x80000000u);
+  EXPECT_EQ(od::kControlword, 0x6040);
+  EXPECT_EQ(od::kStatusword, 0x6041);
+  EXPECT_EQ(od::kModesOfOperation, 0x6060);
+  EXPECT_EQ(od::kModesOfOperationDisplay, 0x6061);
+  EXPECT_EQ(od::kPositionActual, 0x6064);
+  EXPECT_EQ(od::kVelocityActual, 0x606C);
+  EXPECT_EQ(od::kProfileAcceleration, 0x6083);
+  EXPECT_EQ(od::kProfileDeceleration, 0x6084);
+  EXPECT_EQ(od::kQuickStopDeceleration, 0x6085);
+  EXPECT_EQ(od::kTargetVelocity, 0x60FF);
+  EXPECT_EQ(od::kSupportedDriveModes, 0x6502);
+  EXPECT_EQ(od::drive_modes::kProfileVelocity | od::drive_modes::kCyclicSyncVelocity, 0x0104u);
+}
+
+// What the master packs and unpacks, from the table.
+TEST(CanopenPdoMap, FieldsSlotsAndCobIds) {
+  const PdoFields tpdo1 = pdo_fields(pdo_map::kTpdo1);
+  ASSERT_EQ(tpdo1.span().size(), 2u);
+  EXPECT_EQ(tpdo1.fields[0].bits, 16);
+  EXPECT_FALSE(tpdo1.fields[0].is_signed);
+  EXPECT_EQ(tpdo1.fields[1].bits, 32);
+  EXPECT_TRUE(tpdo1.fields[1].is_signed);
+  EXPECT_EQ(slot(pdo_map::kTpdo1, od::kVelocityActual), 1u);
+  EXPECT_EQ(slot(pdo_map::kTpdo1, od::kPositionActual), kMaxMappedObjects);  // not in TPDO1
+  EXPECT_EQ(cob_id(pdo_map::kRpdo1, 5), 0x205u);
+  EXPECT_EQ(cob_id(pdo_map::kTpdo2, 5), 0x285u);
+  EXPECT_EQ(mapping_index(pdo_map::kTpdo2), 0x1A01);
+  EXPECT_EQ(communication_index(pdo_map::kRpdo1), 0x1400);
+  // A TPDO1 frame as a drive sends it: statusword 0x0637, velocity -123456.
+  Frame f;
+  f.len = 6;
+  f.data = {0x37, 0x06, 0xC0, 0x1D, 0xFE, 0xFF, 0, 0};
+  std::int64_t v[kMaxMappedObjects] = {};
+  ASSERT_TRUE(unpack_pdo(f, tpdo1.span(), v));
+  EXPECT_EQ(v[slot(pdo_map::kTpdo1, od::kStatusword)], 0x0637);
+  EXPECT_EQ(v[slot(pdo_map::kTpdo1, od::kVelocityActual)], -123456);
 }
 
 using namespace cairn::cia402;

@@ -7,9 +7,12 @@
 
 #include <algorithm>
 #include <string>
+#include <vector>
 
 #include "drivers/canopen/canopen_codec.hpp"
 #include "drivers/canopen/drive_master.hpp"
+#include "drivers/canopen/object_dictionary.hpp"
+#include "drivers/canopen/pdo_map.hpp"
 #include "hil/cia402/sim_drive_bus.hpp"
 
 namespace cairn {
@@ -205,6 +208,132 @@ TEST(CanopenSim, GarbageFramesAreSurvived) {
   b.run_for(0.3);
   EXPECT_TRUE(b.enabled()) << b.events();
   EXPECT_EQ(cia402::decode(b.master.feedback(0).statusword), cia402::State::kOperationEnabled);
+}
+
+// The master's SDO configuration of node 1 on the wire, write by write (generated from
+// pdo_map::kDrive; the literals are the CiA 301 / 402 values it must produce), each one
+// acknowledged by the drive.
+TEST(CanopenSim, TheConfigurationSequenceOnTheWire) {
+  SimBench b;
+  ASSERT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
+  struct Write {
+    std::uint16_t index;
+    std::uint8_t sub;
+    std::uint32_t value;
+    std::uint8_t size;
+    bool operator==(const Write&) const = default;
+  };
+  std::vector<Write> writes;
+  std::size_t acks = 0, other_responses = 0;
+  for (const auto& e : b.bus.log()) {
+    const can::Frame& f = e.frame;
+    if (e.from_master && f.id == 0x601 && (f.data[0] >> 5) == 1) {
+      ASSERT_EQ(f.data[0] & 0x03, 0x03) << "expedited, size indicated";
+      const auto size = static_cast<std::uint8_t>(4 - ((f.data[0] >> 2) & 3));
+      std::uint32_t v = 0;
+      for (int i = 0; i < size; ++i) v |= static_cast<std::uint32_t>(f.data[4 + i]) << (8 * i);
+      writes.push_back({static_cast<std::uint16_t>(f.data[1] | (f.data[2] << 8)), f.data[3], v, size});
+    } else if (!e.from_master && f.id == 0x581) {
+      (canopen::decode_sdo_response(f).type == canopen::SdoResponse::Type::kDownloadAck ? acks : other_responses)++;
+    }
+  }
+  const std::vector<Write> expected = {
+      {0x1017, 0, 50, 2},           {0x6060, 0, 9, 1},  // heartbeat 50 ms, cyclic synchronous velocity
+      // RPDO1: disable, clear, controlword u16, target velocity i32, count, every SYNC, enable
+      {0x1400, 1, 0x80000201, 4},   {0x1600, 0, 0, 1},  {0x1600, 1, 0x60400010, 4}, {0x1600, 2, 0x60FF0020, 4},
+      {0x1600, 0, 2, 1},            {0x1400, 2, 1, 1},  {0x1400, 1, 0x201, 4},
+      // TPDO1: statusword u16, velocity actual i32
+      {0x1800, 1, 0x80000181, 4},   {0x1A00, 0, 0, 1},  {0x1A00, 1, 0x60410010, 4}, {0x1A00, 2, 0x606C0020, 4},
+      {0x1A00, 0, 2, 1},            {0x1800, 2, 1, 1},  {0x1800, 1, 0x181, 4},
+      // TPDO2: position actual i32
+      {0x1801, 1, 0x80000281, 4},   {0x1A01, 0, 0, 1},  {0x1A01, 1, 0x60640020, 4}, {0x1A01, 0, 1, 1},
+      {0x1801, 2, 1, 1},            {0x1801, 1, 0x281, 4},
+  };
+  ASSERT_EQ(writes.size(), expected.size());
+  for (std::size_t i = 0; i < writes.size(); ++i) {
+    EXPECT_EQ(writes[i], expected[i]) << "write " << i << ": 0x" << std::hex << writes[i].index << " sub " << int{writes[i].sub}
+                                      << " = 0x" << writes[i].value;
+  }
+  EXPECT_EQ(acks, expected.size());
+  EXPECT_EQ(other_responses, 0u);
+}
+
+// One PDO table on both sides. Drives whose mapping is something else (disabled PDOs,
+// other objects, another transmission type) are remapped by the master's configuration to
+// exactly pdo_map::kDrive, read back from their object dictionaries; then the master's
+// RPDOs, packed from the table, are applied by the drives, unpacking by their own mapping,
+// and the drives' TPDOs decode through the master's table to the drives' values, negative
+// ones included.
+TEST(CanopenSim, TheMasterWritesThePdoTableAndBothSidesAgreeOnTheValues) {
+  using namespace canopen;
+  SimBench b;
+  // The emulated drive's factory mapping is the table's too (but for the RPDO's type: it
+  // applies RPDOs on arrival, event-driven).
+  auto expect_table_mapping = [](const hil::DriveNode& d, std::uint8_t node, bool factory) {
+    for (const PdoMapping& m : pdo_map::kDrive) {
+      const std::uint16_t comm = communication_index(m), map = mapping_index(m);
+      const std::uint32_t type = factory && m.direction == PdoDirection::kRpdo ? od::kTransmissionEventDriven : m.transmission_type;
+      EXPECT_EQ(d.od(comm, od::kPdoCobId), cob_id(m, node)) << "node " << int{node} << std::hex << " 0x" << comm;
+      EXPECT_EQ(d.od(comm, od::kPdoTransmissionType), type) << "node " << int{node} << std::hex << " 0x" << comm;
+      ASSERT_EQ(d.od(map, od::kPdoMappingCount), m.count) << "node " << int{node} << std::hex << " 0x" << map;
+      for (std::size_t k = 0; k < m.count; ++k) {
+        EXPECT_EQ(d.od(map, static_cast<std::uint8_t>(k + 1)), m.objects[k].entry()) << "node " << int{node} << std::hex << " 0x" << map;
+      }
+    }
+  };
+  expect_table_mapping(b.bus.drive(0), 1, /*factory=*/true);
+  b.bus.run_until(b.clock.now() + 150 * kNanosPerMilli);  // the drives boot (0.1 s); the master has not run yet
+  for (std::size_t i = 0; i < b.bus.drives(); ++i) {
+    hil::DriveNode& d = b.bus.drive(i);
+    const auto node = static_cast<std::uint8_t>(i + 1);
+    auto write = [&](SdoAddress a, std::uint32_t v, std::size_t size) {
+      const std::uint8_t le[4] = {static_cast<std::uint8_t>(v), static_cast<std::uint8_t>(v >> 8), static_cast<std::uint8_t>(v >> 16),
+                                  static_cast<std::uint8_t>(v >> 24)};
+      d.on_frame(sdo_download(node, a, {le, size}), b.clock.now());
+      ASSERT_EQ(d.outbox().size(), 1u);
+      EXPECT_EQ(decode_sdo_response(d.outbox().front()).type, SdoResponse::Type::kDownloadAck) << std::hex << a.index;
+      d.outbox().clear();
+    };
+    for (const PdoMapping& m : pdo_map::kDrive) {
+      write({communication_index(m), od::kPdoCobId}, od::kPdoDisabled | cob_id(m, node), 4);
+      write({communication_index(m), od::kPdoTransmissionType}, 254, 1);
+      write({mapping_index(m), od::kPdoMappingCount}, 1, 1);
+      for (std::uint8_t sub = 1; sub <= m.count; ++sub) write({mapping_index(m), sub}, mapping_entry(od::kModesOfOperationDisplay, 0, 8), 4);
+    }
+  }
+  ASSERT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
+  for (std::size_t i = 0; i < b.bus.drives(); ++i) expect_table_mapping(b.bus.drive(i), static_cast<std::uint8_t>(i + 1), false);
+  // RPDO1: the controlword and a negative target velocity reach the drive.
+  const std::int32_t cmd[] = {23456, -34567};
+  b.master.command(cmd);
+  b.run_for(0.5);  // past the ramp (400000/s): the drives turn at exactly the target
+  for (std::size_t i = 0; i < 2; ++i) {
+    const hil::DriveNode& d = b.bus.drive(i);
+    EXPECT_EQ(d.od(od::kControlword, 0), cia402::cw::kEnableOperation);
+    EXPECT_EQ(d.target_velocity(), cmd[i]);
+    EXPECT_EQ(d.velocity(), cmd[i]);
+    // TPDO1: statusword and velocity actual, as the drive put them in.
+    EXPECT_EQ(b.master.drive_state(i), d.state());
+    EXPECT_EQ(b.master.feedback(i).velocity, static_cast<std::int32_t>(d.od(od::kVelocityActual, 0)));
+    EXPECT_EQ(b.master.feedback(i).velocity, cmd[i]);
+  }
+  // TPDO2: position actual, at rest (so it does not move between the TPDO and the check);
+  // drive 2 went backwards.
+  const std::int32_t zero[] = {0, 0};
+  b.master.command(zero);
+  b.run_for(0.5);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const hil::DriveNode& d = b.bus.drive(i);
+    ASSERT_EQ(d.velocity(), 0.0);
+    EXPECT_EQ(b.master.feedback(i).position, static_cast<std::int32_t>(d.od(od::kPositionActual, 0)));
+    EXPECT_NEAR(b.master.feedback(i).position, static_cast<double>(d.position()), 1.0);
+  }
+  EXPECT_GT(b.master.feedback(0).position, 5000);
+  EXPECT_LT(b.master.feedback(1).position, -5000);
+  // The controlword of disable_all, through the same RPDO.
+  b.master.disable_all("test");
+  EXPECT_EQ(b.bus.drive(0).od(od::kControlword, 0), cia402::cw::kSwitchOn);
+  EXPECT_EQ(b.bus.drive(1).state(), cia402::State::kSwitchedOn);
 }
 
 TEST(CanopenSim, TheSameRunGivesTheSameBusTraffic) {

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "drivers/canopen/object_dictionary.hpp"
 #include "hil/cia402/drive_node.hpp"
 
 namespace cairn::canopen {
@@ -38,14 +39,14 @@ TEST(SdoClient, ExpeditedReadAndWrite) {
   Nanos now = 0;
   hil::DriveNode node = booted_node(&now);
   SdoClient c(3, 50 * kNanosPerMilli, 2);
-  ASSERT_TRUE(c.upload({0x1000, 0}));
+  ASSERT_TRUE(c.upload({od::kDeviceType, 0}));
   ASSERT_EQ(run(c, node, &now), SdoClient::Status::kDone);
   EXPECT_EQ(c.value(), 0xFFFF0192u);
   c.reset();
-  ASSERT_TRUE(c.download_u32({0x1017, 0}, 100, 2));
+  ASSERT_TRUE(c.download_u32({od::kProducerHeartbeat, 0}, 100, 2));
   ASSERT_EQ(run(c, node, &now), SdoClient::Status::kDone);
   c.reset();
-  ASSERT_TRUE(c.upload({0x1017, 0}));
+  ASSERT_TRUE(c.upload({od::kProducerHeartbeat, 0}));
   ASSERT_EQ(run(c, node, &now), SdoClient::Status::kDone);
   EXPECT_EQ(c.value(), 100u);
   EXPECT_EQ(c.data().size(), 2u);
@@ -55,7 +56,7 @@ TEST(SdoClient, SegmentedUploadOfTheDeviceName) {
   Nanos now = 0;
   hil::DriveNode node = booted_node(&now);
   SdoClient c(3, 50 * kNanosPerMilli, 2);
-  ASSERT_TRUE(c.upload({0x1008, 0}));
+  ASSERT_TRUE(c.upload({od::kDeviceName, 0}));
   ASSERT_EQ(run(c, node, &now), SdoClient::Status::kDone) << c.error();
   const auto d = c.data();
   EXPECT_EQ(std::string(d.begin(), d.end()), "Cairn emulated CiA 402 drive");  // 28 bytes: 4 segments
@@ -70,11 +71,11 @@ TEST(SdoClient, AbortsAreDecoded) {
   EXPECT_EQ(c.abort_code(), abort_code::kNotExist);
   EXPECT_STREQ(c.error(), "object does not exist in the object dictionary");
   c.reset();
-  ASSERT_TRUE(c.download_u32({0x6041, 0}, 1, 2));  // statusword is read-only
+  ASSERT_TRUE(c.download_u32({od::kStatusword, 0}, 1, 2));  // statusword is read-only
   ASSERT_EQ(run(c, node, &now), SdoClient::Status::kFailed);
   EXPECT_EQ(c.abort_code(), abort_code::kReadOnly);
   c.reset();
-  ASSERT_TRUE(c.download_u32({0x6060, 0}, 7, 1));  // a mode the drive does not support
+  ASSERT_TRUE(c.download_u32({od::kModesOfOperation, 0}, 7, 1));  // a mode the drive does not support
   ASSERT_EQ(run(c, node, &now), SdoClient::Status::kFailed);
   EXPECT_EQ(c.abort_code(), abort_code::kInvalidValue);
 }
@@ -84,7 +85,7 @@ TEST(SdoClient, SilentNodeTimesOutAfterRetries) {
   hil::DriveNode node = booted_node(&now);
   node.set_silent(true);
   SdoClient c(3, 20 * kNanosPerMilli, 2);
-  ASSERT_TRUE(c.upload({0x1000, 0}));
+  ASSERT_TRUE(c.upload({od::kDeviceType, 0}));
   ASSERT_EQ(run(c, node, &now, 200), SdoClient::Status::kFailed);
   EXPECT_EQ(c.abort_code(), abort_code::kTimeout);  // SDO protocol timed out
   EXPECT_EQ(c.timeouts(), 3u);             // first try + 2 retries
@@ -94,7 +95,7 @@ TEST(SdoClient, ExtendedOrRemoteFrameOnTheResponseIdIsIgnored) {
   Nanos now = 0;
   hil::DriveNode node = booted_node(&now);
   SdoClient c(3, 50 * kNanosPerMilli, 2);
-  ASSERT_TRUE(c.upload({0x1000, 0}));
+  ASSERT_TRUE(c.upload({od::kDeviceType, 0}));
   ASSERT_TRUE(c.poll(now += kNanosPerMilli));  // the request is out
   Frame junk;
   junk.len = 8;
@@ -104,7 +105,7 @@ TEST(SdoClient, ExtendedOrRemoteFrameOnTheResponseIdIsIgnored) {
   c.on_frame(junk, now);
   EXPECT_EQ(c.status(), SdoClient::Status::kBusy) << c.error();
   c.reset();
-  ASSERT_TRUE(c.upload({0x1000, 0}));
+  ASSERT_TRUE(c.upload({od::kDeviceType, 0}));
   ASSERT_EQ(run(c, node, &now), SdoClient::Status::kDone);
   EXPECT_EQ(c.value(), 0xFFFF0192u);
 }
@@ -113,7 +114,7 @@ TEST(SdoClient, ExtendedOrRemoteFrameOnTheResponseIdIsIgnored) {
 TEST(SdoClient, SegmentedDownload) {
   SdoClient c(5, 50 * kNanosPerMilli, 1);
   const std::string text = "robot-7 left wheel";  // 18 bytes: 3 segments
-  ASSERT_TRUE(c.download({0x1008, 0}, {reinterpret_cast<const std::uint8_t*>(text.data()), text.size()}));
+  ASSERT_TRUE(c.download({od::kDeviceName, 0}, {reinterpret_cast<const std::uint8_t*>(text.data()), text.size()}));
   std::string received;
   bool toggle = false;
   Nanos now = 0;
@@ -122,16 +123,14 @@ TEST(SdoClient, SegmentedDownload) {
     auto f = c.poll(now);
     if (!f) continue;
     Frame r;
-    r.id = 0x585;
-    r.len = 8;
     const std::uint8_t ccs = f->data[0] >> 5;
     if (ccs == 1) {
-      r.data[0] = 0x60;  // initiate download response
+      r = sdo_download_ack(5, {od::kDeviceName, 0});
     } else if (ccs == 0) {
       ASSERT_EQ(static_cast<bool>(f->data[0] & 0x10), toggle);
       const int n = 7 - ((f->data[0] >> 1) & 7);
       received.append(reinterpret_cast<const char*>(f->data.data() + 1), static_cast<std::size_t>(n));
-      r.data[0] = static_cast<std::uint8_t>(0x20 | (toggle ? 0x10 : 0));
+      r = sdo_download_segment_ack(5, toggle);
       toggle = !toggle;
     }
     c.on_frame(r, now);
@@ -145,21 +144,16 @@ TEST(SdoClient, SegmentedDownload) {
 TEST(SdoClient, DownloadToggleErrorSendsTheAbort) {
   SdoClient c(5, 50 * kNanosPerMilli, 1);
   const std::string text = "robot-7 left wheel";
-  ASSERT_TRUE(c.download({0x1008, 0}, {reinterpret_cast<const std::uint8_t*>(text.data()), text.size()}));
+  ASSERT_TRUE(c.download({od::kDeviceName, 0}, {reinterpret_cast<const std::uint8_t*>(text.data()), text.size()}));
   Nanos now = kNanosPerMilli;
   auto init = c.poll(now);
   ASSERT_TRUE(init);
-  Frame ack;
-  ack.id = 0x585;
-  ack.len = 8;
-  ack.data[0] = 0x60;  // initiate download response
-  c.on_frame(ack, now);
+  c.on_frame(sdo_download_ack(5, {od::kDeviceName, 0}), now);
   auto seg = c.poll(now += kNanosPerMilli);
   ASSERT_TRUE(seg);
   ASSERT_EQ(seg->data[0] >> 5, 0) << "first segment";
   ASSERT_FALSE(seg->data[0] & 0x10) << "first segment has toggle 0";
-  ack.data[0] = 0x20 | 0x10;  // segment ack with toggle 1: wrong
-  c.on_frame(ack, now);
+  c.on_frame(sdo_download_segment_ack(5, true), now);  // toggle 1: wrong
   EXPECT_EQ(c.status(), SdoClient::Status::kFailed);
   EXPECT_EQ(c.abort_code(), abort_code::kToggleBit);
   const auto abort = c.poll(now += kNanosPerMilli);
@@ -168,25 +162,21 @@ TEST(SdoClient, DownloadToggleErrorSendsTheAbort) {
   const SdoResponse r = decode_sdo_response(*abort);  // same layout in both directions
   EXPECT_EQ(r.type, SdoResponse::Type::kAbort);
   EXPECT_EQ(r.abort_code, abort_code::kToggleBit);
-  EXPECT_EQ(r.address.index, 0x1008);
+  EXPECT_EQ(r.address.index, od::kDeviceName);
   EXPECT_FALSE(c.poll(now += kNanosPerMilli)) << "sent once";
 }
 
 TEST(SdoClient, UploadToggleErrorSendsTheAbort) {
   SdoClient c(5, 50 * kNanosPerMilli, 1);
-  ASSERT_TRUE(c.upload({0x1008, 0}));
+  ASSERT_TRUE(c.upload({od::kDeviceName, 0}));
   Nanos now = kNanosPerMilli;
   ASSERT_TRUE(c.poll(now));
-  Frame r;
-  r.id = 0x585;
-  r.len = 8;
-  r.data = {0x41, 0x08, 0x10, 0x00, 20, 0, 0, 0};  // segmented upload, 20 bytes
-  c.on_frame(r, now);
+  c.on_frame(sdo_upload_segmented_init(5, {od::kDeviceName, 0}, 20), now);
   auto req = c.poll(now += kNanosPerMilli);
   ASSERT_TRUE(req);
   ASSERT_EQ(req->data[0], 0x60) << "upload segment request, toggle 0";
-  r.data = {0x10, 'a', 'b', 'c', 'd', 'e', 'f', 'g'};  // toggle 1: wrong
-  c.on_frame(r, now);
+  const std::uint8_t seven[] = {'a', 'b', 'c', 'd', 'e', 'f', 'g'};
+  c.on_frame(sdo_upload_segment_response(5, true, seven, false), now);  // toggle 1: wrong
   EXPECT_EQ(c.status(), SdoClient::Status::kFailed);
   EXPECT_EQ(c.abort_code(), abort_code::kToggleBit);
   const auto abort = c.poll(now += kNanosPerMilli);
