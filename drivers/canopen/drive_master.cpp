@@ -67,7 +67,9 @@ void DriveMaster::set_phase(Node& n, NodePhase p, const char* reason) {
 }
 
 void DriveMaster::send(const can::Frame& f) {
-  port_->send(f, clock_->now() + cfg_.io_slice);
+  // Not retried here: SYNC, PDOs and heartbeats go out again next cycle, and an SDO the
+  // drive does not answer is retried by its client. Counted, and reported as bus errors.
+  if (port_->send(f, clock_->now() + cfg_.io_slice) != can::SendResult::kSent) ++send_failures_;
 }
 
 bool DriveMaster::all_enabled() const {

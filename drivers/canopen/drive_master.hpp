@@ -84,6 +84,8 @@ class DriveMaster {
   std::uint64_t restart_failures() const { return restart_failures_; }
   /// Steps that found a full kMaxFramesPerStep frames waiting and slept out their slice.
   std::uint64_t floods() const { return floods_; }
+  /// Frames the port did not send (queue full past the slice, bus-off, link down).
+  std::uint64_t send_failures() const { return send_failures_; }
 
  private:
   struct Node {
@@ -111,7 +113,7 @@ class DriveMaster {
   std::array<Node, kMaxDrives> nodes_;
   std::size_t count_ = 0;
   Nanos next_sync_ = 0;
-  std::uint64_t syncs_ = 0, recoveries_ = 0, restart_failures_ = 0, floods_ = 0;
+  std::uint64_t syncs_ = 0, recoveries_ = 0, restart_failures_ = 0, floods_ = 0, send_failures_ = 0;
   bool disabled_ = false;
   std::atomic<bool> estop_request_{false};
   Nanos bus_retry_at_ = 0;

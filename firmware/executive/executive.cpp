@@ -157,7 +157,8 @@ void Executive::can_thread() {
         copy_text(&d[i].reason, canopen::phase_name(master_->phase(i)));
         d[i].frames = static_cast<std::uint32_t>(master_->feedback(i).updates);
         d[i].recoveries = static_cast<std::uint32_t>(master_->recoveries() + bus.restarts);  // fault resets, bus restarts
-        d[i].errors = static_cast<std::uint32_t>(bus.error_frames + bus.bus_off);
+        d[i].errors = static_cast<std::uint32_t>(bus.error_frames + bus.bus_off + master_->send_failures() +
+                                                 master_->restart_failures());
         d[i].timeouts = static_cast<std::uint32_t>(master_->last_emcy(i));
         device_box_[1 + i].write(d[i]);
       }

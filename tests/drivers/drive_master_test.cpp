@@ -15,6 +15,7 @@ namespace {
 class ScriptedPort final : public can::Port {
  public:
   can::SendResult send(const can::Frame& f, Nanos) override {
+    if (refuse) return can::SendResult::kQueueFull;
     sent.push_back(f);
     return can::SendResult::kSent;
   }
@@ -33,6 +34,7 @@ class ScriptedPort final : public can::Port {
   }
 
   std::function<void(Nanos)> on_pause;
+  bool refuse = false;  // send() answers kQueueFull
   std::deque<can::Frame> inbox;
   std::vector<can::Frame> sent;
 
@@ -157,6 +159,32 @@ TEST(DriveMaster, AFloodOfFramesDoesNotKeepTheCanThreadAwake) {
   std::size_t syncs = 0;
   for (const can::Frame& f : port.sent) syncs += f.id == kCobSync;
   EXPECT_GE(static_cast<Nanos>(syncs) + 1, (clock.now() - t0) / cfg.sync_period) << "SYNCs missed under the flood";
+}
+
+// A frame the port does not send is counted, not dropped silently (the master's send used
+// to discard the port's answer).
+TEST(DriveMaster, FramesThePortDoesNotSendAreCounted) {
+  SteppingClock clock(kNanosPerSecond);
+  ScriptedPort port;
+  MasterConfig cfg;
+  cfg.nodes = {1, 0, 0, 0};
+  DriveMaster m(&port, &clock, cfg);
+  EXPECT_EQ(m.send_failures(), 0u);
+  port.refuse = true;
+  std::size_t steps = 0;
+  for (; steps < 100 && m.send_failures() == 0; ++steps) {
+    clock.advance(kNanosPerMilli);
+    m.step();
+  }
+  EXPECT_GT(m.send_failures(), 0u) << "SYNCs refused by the port went uncounted";
+  const std::uint64_t refused = m.send_failures();
+  port.refuse = false;
+  for (int i = 0; i < 100; ++i) {
+    clock.advance(kNanosPerMilli);
+    m.step();
+  }
+  EXPECT_EQ(m.send_failures(), refused) << "frames the port sent were counted as failures";
+  EXPECT_FALSE(port.sent.empty());
 }
 
 }  // namespace
