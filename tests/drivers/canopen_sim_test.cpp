@@ -6,14 +6,17 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
 #include "drivers/canopen/canopen_codec.hpp"
+#include "drivers/canopen/diff_drive.hpp"
 #include "drivers/canopen/drive_master.hpp"
 #include "drivers/canopen/object_dictionary.hpp"
 #include "drivers/canopen/pdo_map.hpp"
 #include "hil/cia402/sim_drive_bus.hpp"
+#include "hil/robot/diff_robot.hpp"
 
 namespace cairn {
 namespace {
@@ -208,6 +211,63 @@ TEST(CanopenSim, GarbageFramesAreSurvived) {
   b.run_for(0.3);
   EXPECT_TRUE(b.enabled()) << b.events();
   EXPECT_EQ(cia402::decode(b.master.feedback(0).statusword), cia402::State::kOperationEnabled);
+}
+
+// The drives' wheels move a simulated robot: after every master step the robot is advanced
+// by the step's simulated time at the drives' velocities (as the HIL bench does).
+TEST(CanopenSim, TwoDrivesMoveASimulatedRobotInTheWorld) {
+  SimBench b;
+  ASSERT_GT(b.until([&] { return b.enabled(); }, 5.0), 0) << b.events();
+  hil::World world = hil::World::parse("box 0 0 20 20\n", "hall");
+  canopen::DiffDriveGeometry g;
+  hil::DiffRobot robot(1, g, {5, 5, 0}, 0.3, &world);
+  // Drives at (v, w) until `done` holds or `timeout` simulated s pass. Returns the drives'
+  // velocities at the end, which must equal the command once the ramp is over.
+  struct Wheels {
+    double left, right;
+    double max_step_s;  // the longest master step: how far past the target the loop can end
+  };
+  auto drive_until = [&](double v, double w, auto done, double timeout) {
+    const canopen::WheelCommand c = canopen::wheel_command(g, v, w);
+    const std::int32_t cmd[] = {c.left, c.right};
+    b.master.command(cmd);
+    const Nanos end = b.clock.now() + seconds_to_nanos(timeout);
+    Nanos last = b.clock.now();
+    Wheels wheels{0, 0, 0};
+    while (!done() && b.clock.now() < end) {
+      b.master.step();
+      const Nanos now = b.clock.now();
+      wheels.left = b.bus.drive(0).velocity();
+      wheels.right = b.bus.drive(1).velocity();
+      robot.step(wheels.left, wheels.right, nanos_to_seconds(now - last));
+      wheels.max_step_s = std::max(wheels.max_step_s, nanos_to_seconds(now - last));
+      last = now;
+    }
+    EXPECT_TRUE(done()) << "not reached in " << timeout << " s; pose (" << robot.pose().x << ", " << robot.pose().y << ", "
+                        << robot.pose().theta << ")";
+    EXPECT_NEAR(wheels.left, c.left, 0.02 * std::abs(c.left) + 1) << "left drive's steady velocity";
+    EXPECT_NEAR(wheels.right, c.right, 0.02 * std::abs(c.right) + 1) << "right drive's steady velocity";
+    return wheels;
+  };
+  // The loop stops at the first step past the target: at most one step (0.5 m/s or rad/s) over.
+  const Wheels straight = drive_until(0.5, 0.0, [&] { return robot.pose().x >= 6.0; }, 5.0);  // 1 m straight ahead
+  EXPECT_LE(robot.pose().x, 6.0 + 0.5 * straight.max_step_s + 1e-3);
+  EXPECT_NEAR(robot.pose().y, 5.0, 0.01);  // straight: equal wheels
+  EXPECT_NEAR(robot.pose().theta, 0.0, 0.01);
+  // Turning on the spot, the robot moves only until the new command reaches the drives (the
+  // next SYNC's RPDO: one cycle; on simulated time no allowance for load, the wall-clock
+  // bench allowed 100 ms) and while its wheels ramp down from 0.5 m/s at the profile
+  // acceleration (0x6083 = 400 000 increments/s²): v²/2a = 4.1 cm.
+  const double a = 400000.0 * g.wheel_radius_m / g.counts_per_wheel_rad();
+  const double ramp_m = 0.5 * 0.5 / (2 * a) + 0.5 * nanos_to_seconds(b.mc.sync_period);
+  const Pose2 before_turn = robot.pose();
+  const Wheels turn = drive_until(0.0, 0.5, [&] { return robot.pose().theta >= 1.0; }, 5.0);
+  EXPECT_LE(robot.pose().theta, 1.0 + 0.5 * turn.max_step_s + 1e-3);
+  EXPECT_LT(std::hypot(robot.pose().x - before_turn.x, robot.pose().y - before_turn.y), ramp_m + 0.01);
+  auto wheel_speed = [&](std::size_t k) { return b.bus.drive(k).velocity(); };
+  drive_until(0.0, 0.0, [&] { return wheel_speed(0) == 0.0 && wheel_speed(1) == 0.0; }, 1.0);
+  std::printf("robot after 1 m straight and a 1 rad turn (simulated): (%.3f, %.3f, %.3f)\n", robot.pose().x, robot.pose().y,
+              robot.pose().theta);
 }
 
 // The master's SDO configuration of node 1 on the wire, write by write (generated from

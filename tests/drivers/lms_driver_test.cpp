@@ -1,8 +1,9 @@
 // The LMS2xx driver against the byte-exact emulator over a pty and over TCP, in real
-// time: the transports (termios baud switching on a pty from every start baud, TCP at a
-// fixed rate, no SIGPIPE when a TCP peer goes away, clear errors for missing ports) and
-// scans equal to the world's ray casts. The driver's logic (wire faults counted exactly,
-// timestamps to the microsecond) is tested on simulated time in lms_sim_test.
+// time: the transports only (termios baud switching on a pty from every start baud, TCP at
+// a fixed rate, no SIGPIPE when a TCP peer goes away, clear errors for missing ports). The
+// driver's logic (time to streaming, scans equal to the world's ray casts, interlaced
+// angles, wire faults counted exactly, timestamps to the microsecond) is tested on
+// simulated time in lms_sim_test.
 #include "drivers/sick/lms_driver.hpp"
 
 #include <gtest/gtest.h>
@@ -14,14 +15,11 @@
 
 #include <atomic>
 #include <mutex>
-#include <numbers>
-#include <set>
 #include <thread>
 #include <vector>
 
 #include "hil/lms2xx/lms_server.hpp"
 #include "tests/support/pty_baud.hpp"
-#include "tests/support/timing.hpp"
 
 namespace cairn {
 namespace {
@@ -57,9 +55,9 @@ struct Collector : lms::ScanSink {
 
 class Bench {
  public:
-  explicit Bench(hil::LmsServer::Link link, std::uint32_t target = 500000, bool interlaced = false)
+  explicit Bench(hil::LmsServer::Link link, std::uint32_t target = 500000)
       : world_(hil::World::parse(kWorld, "test")),
-        server_(link, cfg(link, target, interlaced), &world_, [](Nanos) { return kSensor; }) {
+        server_(link, cfg(link, target), &world_, [](Nanos) { return kSensor; }) {
     server_.start();
     std::string err;
     stream_ = serial::open_stream(server_.uri(), link == hil::LmsServer::Link::kTcp ? target : 9600, &err);
@@ -73,10 +71,8 @@ class Bench {
     stop_io();
     server_.stop();
   }
-  static hil::LmsDeviceConfig cfg(hil::LmsServer::Link link = hil::LmsServer::Link::kPty, std::uint32_t target = 500000,
-                                  bool interlaced = false) {
+  static hil::LmsDeviceConfig cfg(hil::LmsServer::Link link = hil::LmsServer::Link::kPty, std::uint32_t target = 500000) {
     hil::LmsDeviceConfig c;
-    c.interlaced = interlaced;
     c.boot_time_s = 0.2;
     c.range_noise_m = 0.005;
     // Behind a serial device server (TCP) the laser is set permanently to the server's rate.
@@ -138,74 +134,21 @@ TEST(LmsDriver, PowerOnToStreamingFromEveryStartBaud) {
     std::this_thread::sleep_for(300ms);  // booted: the power-on telegram went out at 9600
     b.server_.force_baud(start);         // a device left at another permanent rate
     b.start_io();
-    const double t = b.wait_streaming(5, 5s);
+    // A hang guard, not a bound: LmsSim bounds the time to streaming on simulated time.
+    const double t = b.wait_streaming(5, 20s);
     ASSERT_GT(t, 0) << b.reason();
-    EXPECT_LT(t, 3.0 * testing::timing_slack()) << "streaming took " << t << " s";
     EXPECT_EQ(b.stream_->baud(), 500000u);
     EXPECT_STREQ(b.driver_->device_type(), "LMS291;S05          ");
     std::printf("start %6u baud: streaming after %.3f s\n", start, t);
   }
 }
 
-TEST(LmsDriver, ScansEqualTheWorldsRayCasts) {
-  std::string why;
-  const bool pty = testing::pty_carries_500k(&why);
-  Bench b(pty ? hil::LmsServer::Link::kPty : hil::LmsServer::Link::kTcp);
-  if (!pty) std::printf("over TCP: %s\n", why.c_str());
-  b.start_io();
-  ASSERT_GT(b.wait_streaming(10, 5s), 0) << b.reason();
-  std::lock_guard l(b.sink_.m);
-  const lms::LmsScan& s = b.sink_.scans.back();
-  ASSERT_EQ(s.count, 361);
-  int reflective_seen = 0, compared = 0;
-  for (int i = 0; i < s.count; ++i) {
-    const double a = kSensor.theta + s.angle_min + i * s.angle_increment;
-    const hil::RayHit h = b.world_.cast(kSensor.translation(), a, 30.0);
-    if (!h.hit) {
-      EXPECT_EQ(s.range_mm[i], 0) << i;
-      continue;
-    }
-    EXPECT_NEAR(s.range_mm[i] / 1000.0, h.range, 5 * 0.005 + 0.001) << "beam " << i;
-    EXPECT_EQ(s.flags[i] != 0, h.reflective) << "beam " << i;
-    reflective_seen += h.reflective;
-    ++compared;
-  }
-  EXPECT_EQ(compared, 361);
-  EXPECT_GT(reflective_seen, 0);
-}
-
-// Interlaced output: partial scans 1..3 start 0.25, 0.5, 0.75 deg further round. Each of four
-// successive scans must carry its offset and match the world's ray casts at its own angles.
-TEST(LmsDriver, InterlacedPartialScansCarryTheirAngleOffset) {
-  std::string why;
-  const bool pty = testing::pty_carries_500k(&why);
-  Bench b(pty ? hil::LmsServer::Link::kPty : hil::LmsServer::Link::kTcp, 500000, true);
-  b.start_io();
-  ASSERT_GT(b.wait_streaming(8, 5s), 0) << b.reason();
-  std::lock_guard l(b.sink_.m);
-  ASSERT_GE(b.sink_.scans.size(), 4u);
-  std::set<long> offsets_mdeg;
-  for (std::size_t k = b.sink_.scans.size() - 4; k < b.sink_.scans.size(); ++k) {
-    const lms::LmsScan& s = b.sink_.scans[k];
-    ASSERT_EQ(s.count, 361);
-    const double offset_deg = s.angle_min * 180.0 / std::numbers::pi + 90.0;
-    offsets_mdeg.insert(std::lround(offset_deg * 1000));
-    int mismatched = 0;
-    for (int i = 0; i < s.count; ++i) {
-      const hil::RayHit h = b.world_.cast(kSensor.translation(), kSensor.theta + s.angle_min + i * s.angle_increment, 30.0);
-      if (h.hit != (s.range_mm[i] != 0) || (h.hit && std::abs(s.range_mm[i] / 1000.0 - h.range) > 5 * 0.005 + 0.001)) ++mismatched;
-    }
-    EXPECT_EQ(mismatched, 0) << "scan with offset " << offset_deg << " deg";
-  }
-  EXPECT_EQ(offsets_mdeg, (std::set<long>{0, 250, 500, 750})) << "partial-scan offsets";
-}
-
 TEST(LmsDriver, StreamsOverTcpAtAFixedBaud) {
   Bench b(hil::LmsServer::Link::kTcp, 500000);  // the laser wakes at the device server's 500 kBd
   b.start_io();
-  const double t = b.wait_streaming(10, 5s);
+  const double t = b.wait_streaming(10, 20s);  // a hang guard; LmsSim bounds the time
   ASSERT_GT(t, 0) << b.reason();
-  EXPECT_LT(t, 3.0 * testing::timing_slack());
+  std::printf("over TCP: streaming after %.3f s\n", t);
 }
 
 // Neither end of a TCP link dies of SIGPIPE when the other goes away (a library user need

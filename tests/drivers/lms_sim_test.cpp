@@ -1,12 +1,15 @@
 // The LMS2xx driver's logic on simulated time: the production LmsDriver against the
 // byte-exact emulator behind a simulated serial line (hil/lms2xx/sim_lms_link), which
 // carries the device's bytes one at a time at its baud rate. No threads, no sleeps: the
-// power-on search from every start baud, every wire fault counted exactly, and the
-// baud-aware timestamps checked to well under a beam period. The same driver over a real
+// power-on search from every start baud (streaming within 3 s), scans equal to the world's
+// ray casts (interlaced ones at their own angles), every wire fault counted exactly, and
+// the baud-aware timestamps checked to well under a beam period. The same driver over a real
 // pty and TCP, in real time, is lms_driver_test (the transports).
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
+#include <set>
 #include <vector>
 
 #include "drivers/sick/lms_driver.hpp"
@@ -27,11 +30,12 @@ struct Collector : lms::ScanSink {
 };
 
 struct SimBench {
-  SimBench()
-      : world(hil::World::parse(kWorld, "test")), link(device_config(), &world, [](Nanos) { return kSensor; }),
+  explicit SimBench(bool interlaced = false)
+      : world(hil::World::parse(kWorld, "test")), link(device_config(interlaced), &world, [](Nanos) { return kSensor; }),
         driver(&link, &link.clock(), driver_config(), &sink) {}
-  static hil::LmsDeviceConfig device_config() {
+  static hil::LmsDeviceConfig device_config(bool interlaced = false) {
     hil::LmsDeviceConfig c;
+    c.interlaced = interlaced;
     c.boot_time_s = 0.2;
     c.range_noise_m = 0.005;
     return c;
@@ -187,6 +191,50 @@ TEST(LmsSim, EveryWireFaultIsCountedExactlyAndRecovered) {
   ASSERT_GT(t, 0) << b.driver.reason();
   EXPECT_LT(t, 3.0);
   EXPECT_EQ(b.link.baud(), 500000u);
+}
+
+TEST(LmsSim, ScansEqualTheWorldsRayCasts) {
+  SimBench b;
+  ASSERT_GT(b.until_streaming(10, 10.0), 0) << b.driver.reason();
+  const lms::LmsScan& s = b.sink.scans.back();
+  ASSERT_EQ(s.count, 361);
+  int reflective_seen = 0, compared = 0;
+  for (int i = 0; i < s.count; ++i) {
+    const double a = kSensor.theta + s.angle_min + i * s.angle_increment;
+    const hil::RayHit h = b.world.cast(kSensor.translation(), a, 30.0);
+    if (!h.hit) {
+      EXPECT_EQ(s.range_mm[i], 0) << i;
+      continue;
+    }
+    EXPECT_NEAR(s.range_mm[i] / 1000.0, h.range, 5 * 0.005 + 0.001) << "beam " << i;
+    EXPECT_EQ(s.flags[i] != 0, h.reflective) << "beam " << i;
+    reflective_seen += h.reflective;
+    ++compared;
+  }
+  EXPECT_EQ(compared, 361);
+  EXPECT_GT(reflective_seen, 0);
+}
+
+// Interlaced output: partial scans 1..3 start 0.25, 0.5, 0.75 deg further round. Each of four
+// successive scans must carry its offset and match the world's ray casts at its own angles.
+TEST(LmsSim, InterlacedPartialScansCarryTheirAngleOffset) {
+  SimBench b(/*interlaced=*/true);
+  ASSERT_GT(b.until_streaming(8, 10.0), 0) << b.driver.reason();
+  ASSERT_GE(b.sink.scans.size(), 4u);
+  std::set<long> offsets_mdeg;
+  for (std::size_t k = b.sink.scans.size() - 4; k < b.sink.scans.size(); ++k) {
+    const lms::LmsScan& s = b.sink.scans[k];
+    ASSERT_EQ(s.count, 361);
+    const double offset_deg = s.angle_min * 180.0 / std::numbers::pi + 90.0;
+    offsets_mdeg.insert(std::lround(offset_deg * 1000));
+    int mismatched = 0;
+    for (int i = 0; i < s.count; ++i) {
+      const hil::RayHit h = b.world.cast(kSensor.translation(), kSensor.theta + s.angle_min + i * s.angle_increment, 30.0);
+      if (h.hit != (s.range_mm[i] != 0) || (h.hit && std::abs(s.range_mm[i] / 1000.0 - h.range) > 5 * 0.005 + 0.001)) ++mismatched;
+    }
+    EXPECT_EQ(mismatched, 0) << "scan with offset " << offset_deg << " deg";
+  }
+  EXPECT_EQ(offsets_mdeg, (std::set<long>{0, 250, 500, 750})) << "partial-scan offsets";
 }
 
 TEST(LmsSim, TheSameRunGivesTheSameScans) {
