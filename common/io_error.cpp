@@ -32,7 +32,7 @@ const char* IoError::sys_text() const {
 
 IoError io_error_from_errno(int e) {
   switch (e) {
-    case 0: return {IoErrc::kOk, 0};
+    case 0: return {IoErrc::kSystem, 0};  // a failure without an errno is still a failure
     case ENOENT:
     case ENODEV:
     case ENXIO: return {IoErrc::kNotFound, e};

@@ -35,7 +35,7 @@ struct IoError {
   const char* sys_text() const;
 };
 
-/// The code an errno means.
+/// The code a failure's errno means (never kOk: 0 gives kSystem).
 IoError io_error_from_errno(int e);
 
 }  // namespace cairn

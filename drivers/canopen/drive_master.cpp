@@ -68,8 +68,11 @@ void DriveMaster::set_phase(Node& n, NodePhase p, const char* reason) {
 
 void DriveMaster::send(const can::Frame& f) {
   // Not retried here: SYNC, PDOs and heartbeats go out again next cycle, and an SDO the
-  // drive does not answer is retried by its client. Counted, and reported as bus errors.
-  if (port_->send(f, clock_->now() + cfg_.io_slice) != can::SendResult::kSent) ++send_failures_;
+  // drive does not answer is retried by its client. Counted, and reported as bus errors;
+  // not while the bus is off or the link down, which the port counts once per incident
+  // (every frame of every cycle would otherwise count again).
+  const can::SendResult r = port_->send(f, clock_->now() + cfg_.io_slice);
+  if (r != can::SendResult::kSent && r != can::SendResult::kBusOff && r != can::SendResult::kDown) ++send_failures_;
 }
 
 bool DriveMaster::all_enabled() const {

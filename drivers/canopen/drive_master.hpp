@@ -84,7 +84,8 @@ class DriveMaster {
   std::uint64_t restart_failures() const { return restart_failures_; }
   /// Steps that found a full kMaxFramesPerStep frames waiting and slept out their slice.
   std::uint64_t floods() const { return floods_; }
-  /// Frames the port did not send (queue full past the slice, bus-off, link down).
+  /// Frames the port did not send (queue full past the slice, an error); bus-off and a
+  /// down link are the port's own counts.
   std::uint64_t send_failures() const { return send_failures_; }
 
  private:

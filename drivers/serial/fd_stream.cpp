@@ -120,11 +120,14 @@ std::unique_ptr<TcpStream> TcpStream::open(const std::string& host, const std::s
                                            std::string* error) {
   std::unique_ptr<TcpStream> s(new TcpStream(host, port, baud));
   if (!s->resolve(error)) return nullptr;
-  if (const IoError e = s->connect_fd(kOpenConnectWait); !e.ok()) {
-    *error = s->describe() + ": cannot connect: " + io_errc_text(e.code) + (e.sys ? std::string(" (") + e.sys_text() + ")" : "");
-    return nullptr;
+  IoError e;
+  for (std::size_t i = 0; i < s->n_addrs_; ++i) {  // each address once, kOpenConnectWait each
+    e = s->connect_fd(kOpenConnectWait);
+    if (e.ok()) return s;
+    s->drop_pending();
   }
-  return s;
+  *error = s->describe() + ": cannot connect: " + io_errc_text(e.code) + (e.sys ? std::string(" (") + e.sys_text() + ")" : "");
+  return nullptr;
 }
 
 TcpStream::~TcpStream() {
@@ -142,8 +145,11 @@ bool TcpStream::resolve(std::string* error) {
     *error = describe() + ": cannot resolve: " + gai_strerror(rc);
     return false;
   }
-  std::memcpy(&addr_, res->ai_addr, res->ai_addrlen);  // the first address: a device server has one
-  addr_len_ = res->ai_addrlen;
+  n_addrs_ = 0;
+  for (const addrinfo* a = res; a && n_addrs_ < kMaxAddresses; a = a->ai_next) {
+    std::memcpy(&addrs_[n_addrs_], a->ai_addr, a->ai_addrlen);
+    addr_lens_[n_addrs_++] = a->ai_addrlen;
+  }
   freeaddrinfo(res);
   return true;
 }
@@ -154,24 +160,33 @@ void TcpStream::established(int fd) {
   setsockopt(fd_, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
 }
 
+void TcpStream::drop_pending() {
+  if (pending_ >= 0) ::close(pending_);
+  pending_ = -1;
+  next_addr_ = (next_addr_ + 1) % n_addrs_;
+}
+
 IoError TcpStream::connect_fd(Nanos wait) {
   if (fd_ >= 0) {
     ::close(fd_);
     fd_ = -1;
   }
+  const Nanos now = MonotonicClock::instance().now();
+  if (pending_ >= 0 && now - pending_since_ > kPendingLimit) drop_pending();  // start afresh
   if (pending_ < 0) {
-    pending_ = ::socket(addr_.ss_family, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+    const sockaddr_storage& addr = addrs_[next_addr_];
+    pending_ = ::socket(addr.ss_family, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
     if (pending_ < 0) return io_error_from_errno(errno);
-    if (::connect(pending_, reinterpret_cast<const sockaddr*>(&addr_), addr_len_) == 0) {
+    pending_since_ = now;
+    if (::connect(pending_, reinterpret_cast<const sockaddr*>(&addr), addr_lens_[next_addr_]) == 0) {
       established(pending_);
       pending_ = -1;
       return {};
     }
     if (errno != EINPROGRESS) {
-      const int e = errno;
-      ::close(pending_);
-      pending_ = -1;
-      return io_error_from_errno(e);
+      const IoError e = io_error_from_errno(errno);
+      drop_pending();
+      return e;
     }
   }
   pollfd p{pending_, POLLOUT, 0};
@@ -179,13 +194,12 @@ IoError TcpStream::connect_fd(Nanos wait) {
   int e = 0;
   socklen_t len = sizeof e;
   getsockopt(pending_, SOL_SOCKET, SO_ERROR, &e, &len);
-  const int fd = pending_;
-  pending_ = -1;
   if (e != 0) {
-    ::close(fd);
+    drop_pending();
     return io_error_from_errno(e);
   }
-  established(fd);
+  established(pending_);
+  pending_ = -1;
   return {};
 }
 

@@ -4,6 +4,8 @@
 #include <sys/socket.h>
 #include <termios.h>
 
+#include <array>
+
 #include "drivers/serial/byte_stream.hpp"
 
 namespace cairn::serial {
@@ -30,11 +32,13 @@ class TtyStream final : public ByteStream {
   int fd_ = -1;
 };
 
-/// A TCP client to a serial device server. The address is resolved once, at open (a
-/// name lookup may block); open() waits for the connection up to kOpenConnectWait.
-/// reopen() never waits: it starts a non-blocking connect and returns kConnecting until a
-/// later call finds it established, so the laser's I/O thread is never held by a device
-/// server that does not answer.
+/// A TCP client to a serial device server. The name is resolved once, at open (a lookup
+/// may block), to at most kMaxAddresses addresses; open() waits for a connection up to
+/// kOpenConnectWait per address. reopen() never waits: it starts a non-blocking connect
+/// and returns kConnecting until a later call finds it established, so the laser's I/O
+/// thread is never held by a device server that does not answer. A connect still pending
+/// after kPendingLimit is dropped and a fresh one started (the kernel's own SYN retries
+/// back off to half a minute and more), and a refused one moves on to the next address.
 class TcpStream final : public ByteStream {
  public:
   static std::unique_ptr<TcpStream> open(const std::string& host, const std::string& port, std::uint32_t baud,
@@ -51,18 +55,23 @@ class TcpStream final : public ByteStream {
 
  private:
   static constexpr Nanos kOpenConnectWait = 2 * kNanosPerSecond;
+  static constexpr Nanos kPendingLimit = 2 * kNanosPerSecond;
+  static constexpr std::size_t kMaxAddresses = 4;
   TcpStream(std::string host, std::string port, std::uint32_t baud) : host_(std::move(host)), port_(std::move(port)), baud_(baud) {}
   bool resolve(std::string* error);
   /// Starts a connect, or checks the one under way; ok once established. `wait`: how
   /// long to wait for it here (0 at a reopen).
   IoError connect_fd(Nanos wait);
+  void drop_pending();  // closes a connect under way; the next tries the next address
   void established(int fd);
   std::string host_, port_;
   std::uint32_t baud_;
-  sockaddr_storage addr_{};
-  socklen_t addr_len_ = 0;
+  std::array<sockaddr_storage, kMaxAddresses> addrs_{};
+  std::array<socklen_t, kMaxAddresses> addr_lens_{};
+  std::size_t n_addrs_ = 0, next_addr_ = 0;  // the address the next connect tries
   int fd_ = -1;
-  int pending_ = -1;  // a connect under way
+  int pending_ = -1;          // a connect under way
+  Nanos pending_since_ = 0;
 };
 
 /// The termios speed for a baud rate (B0 for one termios cannot name).

@@ -72,7 +72,7 @@ void LmsDriver::probe_next() {
   if (probe_index_ >= probe_order_.size() || probe_order_[probe_index_] == 0) probe_index_ = 0;
   const std::uint32_t b = probe_order_[probe_index_++];
   if (const IoError e = stream_->baud() != b ? stream_->set_baud(b) : IoError{}; !e.ok()) {
-    enter(DriverState::kError, "cannot set %u baud: %s %s", b, io_errc_text(e.code), e.sys_text());
+    enter(DriverState::kError, "cannot set %u baud: %s (%s)", b, io_errc_text(e.code), e.sys_text());
     reopen_at_ = clock_->now() + cfg_.reopen_backoff;
     return;
   }
@@ -304,8 +304,12 @@ void LmsDriver::step() {
     if (const IoError e = stream_->reopen(); e.ok()) {
       ++counters_.reconnects;
       start_search();
+    } else if (e.code == IoErrc::kConnecting) {
+      // A connect under way (tcp:): look again after one slice, not a whole backoff.
+      enter(DriverState::kError, "%s: %s", link_name_.data(), io_errc_text(e.code));
+      reopen_at_ = now + cfg_.io_slice;
     } else {
-      enter(DriverState::kError, "%s: reopen failed: %s %s", link_name_.data(), io_errc_text(e.code), e.sys_text());
+      enter(DriverState::kError, "%s: reopen failed: %s (%s)", link_name_.data(), io_errc_text(e.code), e.sys_text());
       reopen_at_ = now + cfg_.reopen_backoff;
     }
     return;

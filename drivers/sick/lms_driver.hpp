@@ -103,8 +103,8 @@ class LmsDriver {
   Parser parser_{kReplyAddress};
   DriverState state_ = DriverState::kSearching;
   Step step_ = Step::kStop;
-  std::array<char, 96> reason_{};
-  std::array<char, 48> link_name_{};  // stream_->describe(), copied at construction: no std::string on the I/O thread
+  std::array<char, 128> reason_{};
+  std::array<char, 96> link_name_{};  // stream_->describe(), copied at construction: no std::string on the I/O thread
   std::array<char, 24> type_{};
   std::array<std::uint8_t, 1024> rx_{};
   // Waiting for a reply.

@@ -38,6 +38,7 @@ struct Fake {
   int waits_forever = 0;     // sp_wait / sp_blocking_write asked with timeout 0
   int library_io_calls = 0;  // sp_wait, sp_blocking_*, sp_nonblocking_read, sp_input_waiting
   int lookups = 0;           // sp_get_port_by_name (allocates the port's record)
+  int open_errno = 0;        // sp_open fails with this errno (SP_ERR_FAIL) when set
 };
 Fake g_fake;
 sp_event_set g_events{};
@@ -59,7 +60,8 @@ sp_return sp_list_ports(sp_port*** list) {
   return SP_OK;
 }
 void sp_free_port_list(sp_port**) {}
-sp_return sp_open(sp_port*, sp_mode) { return SP_OK; }
+sp_return sp_open(sp_port*, sp_mode) { return g_fake.open_errno ? SP_ERR_FAIL : SP_OK; }
+int sp_last_error_code(void) { return g_fake.open_errno; }
 sp_return sp_close(sp_port*) { return SP_OK; }
 char* sp_get_port_name(const sp_port*) { return g_name; }
 sp_return sp_get_port_handle(const sp_port* port, void* result) {
@@ -235,6 +237,22 @@ TEST_F(SerialPortStreamTest, ReopenReusesThePortAndAllocatesNothing) {
   const IoResult got = stream_->read(buf, 100 * kNanosPerMilli);
   ASSERT_EQ(got.status, IoResult::Status::kOk);
   EXPECT_EQ(got.bytes, 2u);
+}
+
+// A reopen that fails (the adapter unplugged: ENOENT) says so with the code, not ok with
+// a dead descriptor; reads then report the link closed, and the next good reopen streams.
+TEST_F(SerialPortStreamTest, AFailedReopenIsAnErrorAndTheLinkStaysClosed) {
+  g_fake.open_errno = ENOENT;
+  const IoError e = stream_->reopen();
+  EXPECT_EQ(e.code, IoErrc::kNotFound) << io_errc_text(e.code);
+  EXPECT_EQ(e.sys, ENOENT);
+  std::uint8_t buf[8];
+  EXPECT_EQ(stream_->read(buf, 0).status, IoResult::Status::kClosed);
+  g_fake.open_errno = 0;
+  EXPECT_TRUE(stream_->reopen().ok());
+  const std::uint8_t hello[] = {'o', 'k'};
+  ASSERT_EQ(::write(sv_[1], hello, 2), 2);
+  EXPECT_EQ(stream_->read(buf, 100 * kNanosPerMilli).status, IoResult::Status::kOk);
 }
 
 }  // namespace

@@ -114,6 +114,51 @@ TEST(TcpStream, ReopenNeverWaitsForAServerThatDoesNotAnswerAndConnectsOnceItDoes
   EXPECT_LT(slowest_ms, 20.0);
 }
 
+// A connect pending while the server drops SYNs is given up after 2 s and started afresh:
+// the kernel's own SYN retries come at 1, 3, 7, 15 ... s, so a server back at 4.5 s would
+// otherwise be found only at 7 s.
+TEST(TcpStream, APendingConnectIsStartedAfreshSoAServerBackIsFoundQuickly) {
+  Listener server;
+  std::string err;
+  auto stream = serial::TcpStream::open("127.0.0.1", std::to_string(server.port), 500000, &err);
+  ASSERT_TRUE(stream) << err;
+  server.drain();
+  server.fill();
+  const Nanos t0 = MonotonicClock::instance().now();
+  IoError last;
+  while (ms_since(t0) < 4500) {
+    last = stream->reopen();
+    ASSERT_FALSE(last.ok()) << "connected to a server whose queue is full";
+    usleep(50000);
+  }
+  server.drain();  // the server answers again
+  for (int c : server.clients) ::close(c);
+  server.clients.clear();
+  const Nanos back = MonotonicClock::instance().now();
+  bool connected = false;
+  while (!connected && ms_since(back) < 5000) {
+    server.drain();
+    connected = stream->reopen().ok();
+    usleep(20000);
+  }
+  ASSERT_TRUE(connected);
+  const double after_ms = ms_since(back);
+  std::printf("connected %.0f ms after the server came back\n", after_ms);
+  EXPECT_LT(after_ms, 1500.0) << "the connect waited for the kernel's SYN retry at 7 s";
+}
+
+// A name that resolves to several addresses: one refused moves on to the next.
+TEST(TcpStream, ARefusedAddressMovesOnToTheNext) {
+  Listener server;  // IPv4 only; "localhost" resolves to ::1 first where IPv6 is on
+  std::string err;
+  auto stream = serial::TcpStream::open("localhost", std::to_string(server.port), 500000, &err);
+  ASSERT_TRUE(stream) << err;
+  server.drain();
+  bool connected = false;
+  for (int i = 0; i < 4 && !connected; ++i) connected = stream->reopen().ok();
+  EXPECT_TRUE(connected) << "a reopen stayed on a refused address";
+}
+
 TEST(TcpStream, ARefusedConnectionIsAnErrorAtOnce) {
   int port = 0;
   {

@@ -255,6 +255,7 @@ TEST_F(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
   double odometer = 0;
   [[maybe_unused]] bool rt_granted = false;  // read only in unsanitized builds
   firmware::RtSnapshot snap;
+  [[maybe_unused]] Nanos loop_from = 0, loop_to = 0;  // the RT loop's life, for the witness's stalls (unsanitized)
   // The RT loop on the last CPU, watched there by a witness one priority above it: a
   // machine that is itself a VM loses whole milliseconds of a CPU to its host now and then
   // (CI once saw an 8 ms gap), which no scheduling inside it can prevent.
@@ -273,6 +274,7 @@ TEST_F(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
     // Under qemu-user a CAN or Modbus thread starved for 50 ms is the emulation, not the
     // robot, and the latch it sets would end the drive: the timeouts stretch with the slack
     // (StaleInputsStopWithinTheirBounds measures them at their production values).
+    loop_from = MonotonicClock::instance().now();
     Harness h(bc, realtime, rt_cpu, testing::timing_slack());
     ASSERT_GT(h.run_until([&] { return h.exec->rt_snapshot().stop == firmware::StopReason::kNone; }, 10.0), 0)
         << "never ready: stop reason " << firmware::stop_reason_text(h.exec->rt_snapshot().stop);
@@ -303,6 +305,7 @@ TEST_F(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
     end_truth = h.truth_local();
     odometer = h.bench.truth().odometer;
     snap = h.exec->rt_snapshot();
+    loop_to = MonotonicClock::instance().now();
     EXPECT_EQ(h.out_of_order, 0u);
     if (on_vm_bench()) {
       EXPECT_EQ(h.bench.lms().uart_baud_refused(), 0u) << "the laser's UART refused its rate";
@@ -352,20 +355,19 @@ TEST_F(ExecutiveHil, CorridorLoopDriftFeaturesOrderAndNoAllocations) {
     const bool attributable = witness && witness->granted() && witness->dropped() == 0;
     EXPECT_TRUE(attributable) << "the stall witness was not granted SCHED_FIFO 81 on CPU " << rt_cpu << " or lost stalls";
     // The period's 99th percentile within 20 % of the period (seen: 10,060-10,240 us): a
-    // loop that overran its period by 2 ms in 1 % of its cycles fails. That holds while the
-    // platform's own stalls of more than 2 ms (the witness's) touch under 0.5 % of the
-    // cycles (usually a few dozen of ~5,800); a hypervisor that takes the CPU for that long
-    // more often than that (one noisy run here: 7,095 stalls, 4.2 s of 58 s) moves the p99
-    // by itself, and then only the attributed deadline-miss check below applies.
+    // loop that overran its period by 2 ms in 1 % of its cycles fails. The platform alone
+    // cannot move the p99 that far while its own stalls of more than 2 ms (the witness's,
+    // during the loop's life) hit under 1 % of the cycles (usually two or three dozen of
+    // ~5,800). A hypervisor that takes the CPU that long more often (one noisy run here:
+    // 7,095 stalls, 4.2 s of 58 s, p99 13.3 ms) gets the wider bound of 2 periods, which
+    // a loop that overran by a whole period in 1 % of its cycles still fails.
     const Nanos period_ns = firmware::ExecutiveConfig{}.period;
-    const std::size_t long_stalls = attributable ? witness->longer_than(period_ns / 5) : 0;
-    std::printf("platform stalls of the RT CPU longer than 2 ms: %zu\n", long_stalls);
-    if (long_stalls * 200 < snap.cycles) {
-      EXPECT_LE(static_cast<double>(snap.period_p99_us), 1.2 * nanos_to_seconds(period_ns) * 1e6) << "p99 of the RT period";
-    } else {
-      std::printf("p99 of the RT period not checked: the platform stalled the RT CPU > 2 ms %zu times in %llu cycles\n",
-                  long_stalls, static_cast<unsigned long long>(snap.cycles));
-    }
+    const std::size_t long_stalls = attributable ? witness->longer_than(period_ns / 5, loop_from, loop_to) : 0;
+    const bool quiet_platform = long_stalls * 100 < snap.cycles;
+    std::printf("platform stalls of the RT CPU longer than 2 ms during the loop: %zu in %llu cycles: p99 bound %s\n", long_stalls,
+                static_cast<unsigned long long>(snap.cycles), quiet_platform ? "1.2 periods" : "2 periods (noisy platform)");
+    EXPECT_LE(static_cast<double>(snap.period_p99_us), (quiet_platform ? 1.2 : 2.0) * nanos_to_seconds(period_ns) * 1e6)
+        << "p99 of the RT period";
     if (!attributable) {
       EXPECT_EQ(snap.misses, 0u) << "deadline misses with SCHED_FIFO";
     } else {

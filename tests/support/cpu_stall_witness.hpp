@@ -77,10 +77,10 @@ class CpuStallWitness {
     return m;
   }
   Nanos total() const { return stolen(0, INT64_MAX); }
-  /// How many recorded stalls lasted longer than `d`.
-  std::size_t longer_than(Nanos d) const {
+  /// How many recorded stalls that began within [from, to] lasted longer than `d`.
+  std::size_t longer_than(Nanos d, Nanos from, Nanos to) const {
     std::size_t n = 0;
-    for (const Stall& s : stalls_) n += s.woke - s.due > d ? 1 : 0;
+    for (const Stall& s : stalls_) n += s.woke - s.due > d && s.due >= from && s.due <= to ? 1 : 0;
     return n;
   }
 
