@@ -1,13 +1,9 @@
 // `cairn-base --reset-estop ID` against fake robots on DDS (loopback profile, own domain):
 // each fake robot is its own participant with the robot's RobotStatus writer and
 // SafetyReset reader (the QoS of firmware/robot_bridge.cpp), and answers a reset for its
-// id as the robot does (stop reason 8 -> 2).
+// id as the robot does (stop reason 8 -> 2) or not at all.
 //
-// Only what needs DDS is here: the reset crosses DDS to the named robot's reader and its
-// status brings the confirmation back. The exchange's logic (resends, timeouts, refusals,
-// an absent robot) is estop_reset_machine_test's, on simulated time.
-//
-// The test is the demo's failure: with robot 1 already on the domain, the old tool
+// The first test is the demo's failure: with robot 1 already on the domain, the old tool
 // waited for "one matched reader", wrote one volatile sample and exited with "sent";
 // robot 2, whose reader matched later, never saw it and stayed latched.
 #include "basestation/estop_reset.hpp"
@@ -29,8 +25,8 @@ constexpr std::uint32_t kDomain = 113;  // this test's own domain
 
 class FakeRobot {
  public:
-  FakeRobot(std::uint16_t id, StopReason reason, Nanos status_period = 50 * kNanosPerMilli)
-      : id_(id), reason_(static_cast<std::uint8_t>(reason)), period_(status_period) {
+  FakeRobot(std::uint16_t id, StopReason reason, bool accepts, Nanos status_period = 50 * kNanosPerMilli)
+      : id_(id), reason_(static_cast<std::uint8_t>(reason)), accepts_(accepts), period_(status_period) {
     thread_ = std::thread([this] { run(); });
   }
   ~FakeRobot() {
@@ -38,6 +34,7 @@ class FakeRobot {
     thread_.join();
   }
   int resets() const { return resets_; }
+  int foreign_resets() const { return foreign_; }
   StopReason reason() const { return static_cast<StopReason>(reason_.load()); }
 
  private:
@@ -50,9 +47,12 @@ class FakeRobot {
     std::uint32_t seq = 0;
     while (!stop_) {
       resets.take([&](const cairn_SafetyReset& r, const dds_sample_info_t&) {
-        if (r.robot_id != id_) return;
+        if (r.robot_id != id_) {
+          ++foreign_;
+          return;
+        }
         ++resets_;
-        if (reason_ == static_cast<std::uint8_t>(StopReason::kResetRequired)) {
+        if (accepts_ && reason_ == static_cast<std::uint8_t>(StopReason::kResetRequired)) {
           reason_ = static_cast<std::uint8_t>(StopReason::kDrivesNotReady);
         }
       });
@@ -68,29 +68,30 @@ class FakeRobot {
 
   std::uint16_t id_;
   std::atomic<std::uint8_t> reason_;
+  bool accepts_;
   Nanos period_;
-  std::atomic<int> resets_{0};
+  std::atomic<int> resets_{0}, foreign_{0};
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };
 
-EstopResetRequest request(std::uint16_t robot) {
+EstopResetRequest request(std::uint16_t robot, Nanos timeout = 10 * kNanosPerSecond) {
   EstopResetRequest r;
   r.robot = robot;
   r.issued_by = "estop_reset_test";
-  r.timeout = 10 * kNanosPerSecond;
+  r.timeout = timeout;
   r.confirm_wait = 500 * kNanosPerMilli;
   return r;
 }
 
 TEST(EstopReset, ReachesTheNamedRobotWhenAnotherRobotMatchedFirst) {
   dds::Participant base(dds::loopback_profile(kDomain));
-  FakeRobot one(1, StopReason::kResetRequired);
+  FakeRobot one(1, StopReason::kResetRequired, true);
   std::unique_ptr<FakeRobot> two;
   // Robot 2 joins while the reset is already under way.
   std::thread late([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(1500));
-    two = std::make_unique<FakeRobot>(2, StopReason::kResetRequired);
+    two = std::make_unique<FakeRobot>(2, StopReason::kResetRequired, true);
   });
   const EstopResetResult r = reset_estop(base, request(2));
   late.join();
@@ -102,6 +103,57 @@ TEST(EstopReset, ReachesTheNamedRobotWhenAnotherRobotMatchedFirst) {
   EXPECT_EQ(one.resets(), 0);
   EXPECT_EQ(one.reason(), StopReason::kResetRequired);
   EXPECT_NE(r.message.find("reset accepted"), std::string::npos) << r.message;
+}
+
+TEST(EstopReset, ARobotThatStaysLatchedIsReportedUnconfirmedAfterResending) {
+  dds::Participant base(dds::loopback_profile(kDomain));
+  FakeRobot stubborn(3, StopReason::kResetRequired, false);
+  const EstopResetResult r = reset_estop(base, request(3, 3 * kNanosPerSecond));
+  EXPECT_EQ(r.outcome, EstopResetOutcome::kUnconfirmed) << r.message;
+  EXPECT_FALSE(r.ok());
+  EXPECT_GE(r.sent, 2);  // 3 s at one try per 0.5 s
+  // Every sample reached it (the last may still be on its way to the fake robot's take).
+  for (int k = 0; k < 100 && stubborn.resets() < r.sent; ++k) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_EQ(stubborn.resets(), r.sent);
+  EXPECT_NE(r.message.find("still says stop reason 8"), std::string::npos) << r.message;
+}
+
+TEST(EstopReset, APressedEstopIsRefusedWithoutSending) {
+  dds::Participant base(dds::loopback_profile(kDomain));
+  FakeRobot pressed(4, StopReason::kEstop, true);
+  const EstopResetResult r = reset_estop(base, request(4));
+  EXPECT_EQ(r.outcome, EstopResetOutcome::kCannotReset) << r.message;
+  EXPECT_EQ(r.sent, 0);
+  EXPECT_EQ(pressed.resets(), 0);
+  EXPECT_NE(r.message.find("e-stop pressed"), std::string::npos) << r.message;
+}
+
+TEST(EstopReset, AnUnknownStopReasonIsNotTakenForUnlatched) {
+  dds::Participant base(dds::loopback_profile(kDomain));
+  FakeRobot odd(8, static_cast<StopReason>(200), true);
+  const EstopResetResult r = reset_estop(base, request(8));
+  EXPECT_EQ(r.outcome, EstopResetOutcome::kCannotReset) << r.message;
+  EXPECT_EQ(r.sent, 0);
+  EXPECT_NE(r.message.find("stop reason 200"), std::string::npos) << r.message;
+}
+
+TEST(EstopReset, ARobotThatIsNotLatchedIsLeftAlone) {
+  dds::Participant base(dds::loopback_profile(kDomain));
+  FakeRobot running(5, StopReason::kNone, true);
+  const EstopResetResult r = reset_estop(base, request(5));
+  EXPECT_EQ(r.outcome, EstopResetOutcome::kNotLatched) << r.message;
+  EXPECT_TRUE(r.ok());
+  EXPECT_EQ(r.sent, 0);
+}
+
+TEST(EstopReset, AnAbsentRobotIsNamedAfterTheTimeout) {
+  dds::Participant base(dds::loopback_profile(kDomain));
+  FakeRobot other(6, StopReason::kResetRequired, true);
+  const EstopResetResult r = reset_estop(base, request(7, 1 * kNanosPerSecond));
+  EXPECT_EQ(r.outcome, EstopResetOutcome::kNoRobot) << r.message;
+  EXPECT_EQ(other.resets(), 0);
+  EXPECT_EQ(other.foreign_resets(), 0);
+  EXPECT_NE(r.message.find("robot 7"), std::string::npos) << r.message;
 }
 
 }  // namespace

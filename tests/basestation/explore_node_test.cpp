@@ -2,14 +2,11 @@
 // own domain: bids written as robots write them reach the allocator only from robots the
 // fusion has localised; the coordinated assignment comes back on TaskAssignment to each
 // robot; a robot the fleet calls lost gives its task back. The allocator's own rules are
-// task_allocator_test's, the operator tool's retries and timeouts
-// visit_request_machine_test's.
-//
-// Time: the node runs on a synthetic `now` (poll() takes it); only DDS delivery is waited
-// for, boundedly, on the wall clock.
+// task_allocator_test's.
 #include "basestation/explore_node.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <future>
@@ -54,7 +51,7 @@ msg::BidItem item(double x, double y, double gain, double cost, double half) {
 
 // The base's exploration node in its own DDS domain, with robots 1 and 2 localised by its
 // fusion and alive in its fleet table, and the robots' participant with a Bid writer
-// matched to it. `now` is the node's synthetic time.
+// matched to it.
 struct Base {
   explicit Base(std::uint32_t domain)
       : pp(dds::loopback_profile(domain)),
@@ -66,7 +63,7 @@ struct Base {
         bids(robots, bid_topic, dds::state_qos(1)) {
     localise(&fusion, 1);
     localise(&fusion, 2);
-    for (std::uint16_t id : {std::uint16_t{1}, std::uint16_t{2}}) fleet.on_status(id, "r", "running", 1, now);
+    for (std::uint16_t id : {std::uint16_t{1}, std::uint16_t{2}}) fleet.on_status(id, "r", "running", 1, clock.now());
   }
   static explore::AllocatorConfig config() {
     explore::AllocatorConfig cfg;
@@ -78,28 +75,7 @@ struct Base {
     dds::to_dds(b, &d);
     ASSERT_TRUE(bids.write(d));
   }
-  // Polls the node at `now` until `delivered()` says the samples it waits for crossed DDS
-  // (at most 5 s); the node's own timing does not depend on how long this takes.
-  template <typename Delivered>
-  bool poll_until_delivered(Delivered delivered) {
-    for (int k = 0; k < 1000 && !delivered(); ++k) {
-      poll();
-      if (!delivered()) dds_sleepfor(DDS_MSECS(5));
-    }
-    return delivered();
-  }
-  // Advances `now` in 50 ms polls (at most `limit`) until `done()`.
-  template <typename Done>
-  bool advance_until(Done done, Nanos limit = 5 * kNanosPerSecond) {
-    for (Nanos t = 0; t < limit && !done(); t += 50 * kNanosPerMilli) {
-      now += 50 * kNanosPerMilli;
-      poll();
-    }
-    return done();
-  }
-  void poll() { completions += node.poll(now, fusion, fleet) ? 1 : 0; }
-  int completions = 0;  // polls that said exploration is complete
-  Nanos now = 1 * kNanosPerSecond;
+  MonotonicClock& clock = MonotonicClock::instance();
   dds::Participant pp;
   Fusion fusion;
   Fleet fleet;
@@ -128,8 +104,9 @@ std::pair<msg::Bid, msg::Bid> bids_sharing_a_frontier() {
 
 TEST(ExploreNode, BidsFromLocalisedRobotsComeBackAsCoordinatedTasks) {
   Base b(kDomain);
+  auto& clock = b.clock;
   auto& robots = b.robots;
-  b.fleet.on_status(9, "r", "running", 1, b.now);
+  b.fleet.on_status(9, "r", "running", 1, clock.now());
   ASSERT_TRUE(b.bids.wait_for_readers(1, 5 * kNanosPerSecond));
   // Robot 9 is not in the fusion: its bid must not count.
   const auto [b1, b2] = bids_sharing_a_frontier();
@@ -142,20 +119,16 @@ TEST(ExploreNode, BidsFromLocalisedRobotsComeBackAsCoordinatedTasks) {
 
   dds::Topic<cairn_TaskAssignment> task_topic(robots);
   dds::Reader<cairn_TaskAssignment> tasks(robots, task_topic, dds::latched_qos());
-  const auto& counters = b.node.counters();
-  ASSERT_TRUE(b.poll_until_delivered([&] { return counters.bids_taken + counters.bids_unlocalised == 3; }))
-      << b.node.summary();
-  // Past the wait for bids the round assigns both robots.
-  ASSERT_TRUE(b.advance_until([&] { return counters.assignments_written >= 2; })) << b.node.summary();
-  // The assignments cross DDS back to the robots.
   std::map<std::uint16_t, msg::TaskAssignment> got;
-  for (int k = 0; k < 100 && got.size() < 2; ++k) {
-    tasks.wait(50 * kNanosPerMilli);
+  const Nanos end = clock.now() + 5 * kNanosPerSecond;
+  while (got.size() < 2 && clock.now() < end) {
+    b.node.poll(clock.now(), b.fusion, b.fleet);
     tasks.take([&](const cairn_TaskAssignment& d, const dds_sample_info_t&) {
       msg::TaskAssignment t;
       ASSERT_TRUE(dds::from_dds(d, &t));
       got[t.robot_id] = t;
     });
+    usleep(5000);
   }
   ASSERT_EQ(got.size(), 2u) << b.node.summary();
   EXPECT_EQ(got.count(9), 0u);
@@ -171,9 +144,8 @@ TEST(ExploreNode, BidsFromLocalisedRobotsComeBackAsCoordinatedTasks) {
   EXPECT_NE(b.node.summary().find("bids 2 (unlocalised 1"), std::string::npos) << b.node.summary();
 
   // Robot 2 falls silent: the fleet calls it lost and the allocator takes its task back.
-  b.now += 50 * kNanosPerMilli;
-  b.fleet.on_lost(2, b.now);
-  b.node.poll(b.now, b.fusion, b.fleet);
+  b.fleet.on_lost(2, clock.now());
+  b.node.poll(clock.now(), b.fusion, b.fleet);
   EXPECT_EQ(b.node.allocator().counters().link_losses, 1u);
   const auto t2 = b.node.allocator().task(2);
   ASSERT_TRUE(t2.has_value());
@@ -184,6 +156,7 @@ TEST(ExploreNode, BidsFromLocalisedRobotsComeBackAsCoordinatedTasks) {
 // in the poll where it happens (cairn-base then reports the mapped area and saves the map).
 TEST(ExploreNode, PollReportsTheEndOfExplorationOnce) {
   Base b(kDomain + 1);
+  auto& clock = b.clock;
   const explore::AllocatorConfig cfg = Base::config();
   ASSERT_TRUE(b.bids.wait_for_readers(1, 5 * kNanosPerSecond));
   for (std::uint16_t id : {std::uint16_t{1}, std::uint16_t{2}}) {
@@ -194,44 +167,47 @@ TEST(ExploreNode, PollReportsTheEndOfExplorationOnce) {
     nothing.items[0] = item(3, id, cfg.min_gain, 1, 1);  // gain not above the threshold
     b.write(nothing);
   }
-  // The bids cross DDS (polls at a fixed now meanwhile); then 2 s in 50 ms polls, well past
-  // the 100 ms wait for bids.
-  ASSERT_TRUE(b.poll_until_delivered([&] { return b.node.counters().bids_taken == 2; })) << b.node.summary();
-  for (int k = 1; k <= 40; ++k) {
-    b.now += 50 * kNanosPerMilli;
-    b.poll();
+  // The bids arrive on the wall clock; after that the node runs on simulated time: 2 s in
+  // 50 ms polls, well past the 100 ms wait for bids.
+  int completions = 0;
+  const Nanos end = clock.now() + 5 * kNanosPerSecond;
+  Nanos now = clock.now();
+  while (b.node.counters().bids_taken < 2 && (now = clock.now()) < end) {
+    completions += b.node.poll(now, b.fusion, b.fleet) ? 1 : 0;
+    usleep(5000);
   }
+  ASSERT_EQ(b.node.counters().bids_taken, 2u) << b.node.summary();
+  for (int k = 1; k <= 40; ++k) completions += b.node.poll(now + k * 50 * kNanosPerMilli, b.fusion, b.fleet) ? 1 : 0;
   EXPECT_TRUE(b.node.allocator().explored()) << b.node.summary();
-  EXPECT_EQ(b.completions, 1);
+  EXPECT_EQ(completions, 1);
 }
 
 // "Robot 1, visit (2.5, -1.5)" from the operator's tool while both robots explore: the
 // tool's request reaches the executive, robot 1 gets a GOTO task there (the tool sees it
 // and says so), and robot 2 takes over the frontier robot 1 held. Requests the executive
 // must refuse (a robot it has not localised, a NaN or far target) change nothing and are
-// counted.
+// counted; with no base the tool says so.
 TEST(ExploreNode, VisitRequestSendsTheRobotThereAndTheOthersCoverForIt) {
   Base b(kDomain + 2);
+  auto& clock = b.clock;
   ASSERT_TRUE(b.bids.wait_for_readers(1, 5 * kNanosPerSecond));
   const auto [b1, b2] = bids_sharing_a_frontier();  // 1 takes A (6, 2), 2 takes B (-6, 6)
   b.write(b1);
   b.write(b2);
   auto task_of = [&](std::uint16_t id) { return b.node.allocator().task(id); };
-  ASSERT_TRUE(b.poll_until_delivered([&] { return b.node.counters().bids_taken == 2; })) << b.node.summary();
-  b.advance_until([&] {
-    return task_of(1) && task_of(1)->kind == msg::TaskKind::kExplore && task_of(2) &&
-           task_of(2)->kind == msg::TaskKind::kExplore;
-  });
+  const Nanos end = clock.now() + 5 * kNanosPerSecond;
+  while (!(task_of(1) && task_of(1)->kind == msg::TaskKind::kExplore && task_of(2) &&
+           task_of(2)->kind == msg::TaskKind::kExplore) &&
+         clock.now() < end) {
+    b.node.poll(clock.now(), b.fusion, b.fleet);
+    usleep(5000);
+  }
   ASSERT_TRUE(task_of(2) && task_of(2)->target.isApprox(Vec2(-6, 6))) << b.node.summary();
 
-  // The operator's tool, on its own participant and the wall clock, while the base keeps
-  // polling; its `now` moves 5 ms a poll, as if the tool's DDS traffic took that long.
+  // The operator's tool, on its own participant, while the base keeps polling.
   dds::Participant tool(dds::loopback_profile(kDomain + 2));
   auto poll_while = [&](std::future<VisitResult>& f) {
-    while (f.wait_for(std::chrono::milliseconds(5)) != std::future_status::ready) {
-      b.now += 5 * kNanosPerMilli;
-      b.poll();
-    }
+    while (f.wait_for(std::chrono::milliseconds(5)) != std::future_status::ready) b.node.poll(clock.now(), b.fusion, b.fleet);
     return f.get();
   };
   VisitRequestOptions o;
@@ -250,41 +226,70 @@ TEST(ExploreNode, VisitRequestSendsTheRobotThereAndTheOthersCoverForIt) {
   EXPECT_EQ(b.node.counters().visits_taken, 1u);
   EXPECT_EQ(b.node.allocator().counters().visits_requested, 1u);
   // Robot 2 covers for robot 1: the next round (after the wait for bids) gives it A.
-  b.advance_until([&] { return task_of(2)->target.isApprox(Vec2(6, 2)); });
+  const Nanos cover_end = clock.now() + 5 * kNanosPerSecond;
+  while (!task_of(2)->target.isApprox(Vec2(6, 2)) && clock.now() < cover_end) {
+    b.node.poll(clock.now(), b.fusion, b.fleet);
+    usleep(5000);
+  }
   EXPECT_TRUE(task_of(2)->target.isApprox(Vec2(6, 2))) << task_of(2)->target.transpose() << "; " << b.node.summary();
   EXPECT_EQ(task_of(1)->kind, msg::TaskKind::kGoto);  // still on its visit
 
-  // Refused (the tool's retries and its "unconfirmed" are visit_request_machine_test's):
-  // robot 9 is not localised; NaN and far targets. Written raw, none changes robot 1's
-  // visit, each is counted.
+  // The same request again: confirmed only by the new task, not by the robot's current
+  // (latched) task to the same place.
+  auto again = std::async(std::launch::async, [&] { return request_visit(tool, o); });
+  const VisitResult r2 = poll_while(again);
+  ASSERT_TRUE(r2.ok()) << r2.message;
+  EXPECT_GT(r2.task_id, r.task_id);
+  EXPECT_EQ(task_of(1)->task_id, r2.task_id);
+  EXPECT_EQ(b.node.counters().visits_taken, 2u);
+
+  // Refused: robot 9 is not localised (the tool reports no confirmation); NaN and far
+  // targets written raw. None changes robot 1's visit.
+  o.robot = 9;
+  o.timeout = 1500 * kNanosPerMilli;
+  o.confirm_wait = 500 * kNanosPerMilli;
+  auto refused = std::async(std::launch::async, [&] { return request_visit(tool, o); });
+  const VisitResult rr = poll_while(refused);
+  EXPECT_EQ(rr.outcome, VisitOutcome::kUnconfirmed) << rr.message;
+  EXPECT_GE(rr.sent, 2);  // it retried
   dds::Topic<cairn_VisitRequest> visit_topic(tool);
   dds::Writer<cairn_VisitRequest> raw(tool, visit_topic, dds::state_qos(1));
   ASSERT_TRUE(raw.wait_for_readers(1, 5 * kNanosPerSecond));
   const std::uint64_t refused_before = b.node.counters().visits_refused;
-  EXPECT_EQ(refused_before, 0u);
+  EXPECT_EQ(refused_before, static_cast<std::uint64_t>(rr.sent));
   // One at a time: the reader keeps the latest request per robot (a newer one replaces an
   // older one not yet taken).
   std::uint64_t expected = refused_before;
-  const std::pair<std::uint16_t, Vec2> refused[] = {{9, Vec2(2.5, -1.5)},
-                                                    {2, Vec2(std::nan(""), 1.0)},
-                                                    {2, Vec2(1.0, std::numeric_limits<double>::infinity())},
-                                                    {2, Vec2(2e4, 0.0)}};
-  for (const auto& [robot, target] : refused) {
+  for (const Vec2& target : {Vec2(std::nan(""), 1.0), Vec2(1.0, std::numeric_limits<double>::infinity()), Vec2(2e4, 0.0)}) {
     cairn_VisitRequest d{};
-    d.robot_id = robot;
+    d.robot_id = 2;
     d.seq = 1;
     d.x = target.x();
     d.y = target.y();
     ASSERT_TRUE(raw.write(d));
     ++expected;
-    b.poll_until_delivered([&] { return b.node.counters().visits_refused >= expected; });
+    const Nanos refuse_end = clock.now() + 5 * kNanosPerSecond;
+    while (b.node.counters().visits_refused < expected && clock.now() < refuse_end) {
+      b.node.poll(clock.now(), b.fusion, b.fleet);
+      usleep(5000);
+    }
   }
-  EXPECT_EQ(b.node.counters().visits_refused, refused_before + 4) << b.node.summary();
-  EXPECT_EQ(b.node.counters().visits_taken, 1u);
-  EXPECT_EQ(task_of(1)->task_id, r.task_id);
+  EXPECT_EQ(b.node.counters().visits_refused, refused_before + 3) << b.node.summary();
+  EXPECT_EQ(b.node.counters().visits_taken, 2u);
   EXPECT_TRUE(task_of(2)->target.isApprox(Vec2(6, 2)));
-  EXPECT_NE(b.node.summary().find("visits 1 (refused " + std::to_string(refused_before + 4) + ")"), std::string::npos)
+  EXPECT_NE(b.node.summary().find("visits 2 (refused " + std::to_string(refused_before + 3) + ")"), std::string::npos)
       << b.node.summary();
+}
+
+TEST(ExploreNode, VisitToolReportsWhenNoBaseListens) {
+  dds::Participant tool(dds::loopback_profile(kDomain + 3));  // no base on this domain
+  VisitRequestOptions o;
+  o.robot = 1;
+  o.timeout = 500 * kNanosPerMilli;
+  const VisitResult r = request_visit(tool, o);
+  EXPECT_EQ(r.outcome, VisitOutcome::kNoBase);
+  EXPECT_EQ(r.sent, 0);
+  EXPECT_NE(r.message.find("no base station reads visit requests"), std::string::npos) << r.message;
 }
 
 TEST(ExploreNode, VisitChecksRefuseNonFiniteFarAndUnlocalised) {
