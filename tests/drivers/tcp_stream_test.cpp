@@ -147,18 +147,6 @@ TEST(TcpStream, APendingConnectIsStartedAfreshSoAServerBackIsFoundQuickly) {
   EXPECT_LT(after_ms, 1500.0) << "the connect waited for the kernel's SYN retry at 7 s";
 }
 
-// A name that resolves to several addresses: one refused moves on to the next.
-TEST(TcpStream, ARefusedAddressMovesOnToTheNext) {
-  Listener server;  // IPv4 only; "localhost" resolves to ::1 first where IPv6 is on
-  std::string err;
-  auto stream = serial::TcpStream::open("localhost", std::to_string(server.port), 500000, &err);
-  ASSERT_TRUE(stream) << err;
-  server.drain();
-  bool connected = false;
-  for (int i = 0; i < 4 && !connected; ++i) connected = stream->reopen().ok();
-  EXPECT_TRUE(connected) << "a reopen stayed on a refused address";
-}
-
 TEST(TcpStream, ARefusedConnectionIsAnErrorAtOnce) {
   int port = 0;
   {
