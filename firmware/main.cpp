@@ -148,7 +148,8 @@ int run(const std::string& config_path, int id_override, const std::string& name
         }
       }
       double v = 0, w = 0;
-      nav.command(exec->rt_snapshot().local_pose, &v, &w);
+      const auto rt = exec->rt_snapshot();
+      nav.command(rt.local_pose, rt.v, &v, &w);
       exec->set_velocity(v, w, clock.now());  // not `now`: a bid or a plan may have taken milliseconds
       service.alive(exec->rt_snapshot().cycles, now);
       if (now >= next_progress) {

@@ -47,9 +47,9 @@ std::string Navigator::on_task(const msg::TaskAssignment& task, const std::optio
   return "task " + std::to_string(task.task_id) + ": unknown kind " + std::to_string(static_cast<int>(task.kind));
 }
 
-void Navigator::command(const Pose2& local_pose, double* v, double* w) {
+void Navigator::command(const Pose2& local_pose, double speed_now, double* v, double* w) {
   *v = *w = 0;
-  if (follower_) follower_->command(local_pose, v, w);
+  if (follower_) follower_->command(local_pose, speed_now, v, w);
 }
 
 }  // namespace cairn::firmware

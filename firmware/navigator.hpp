@@ -24,8 +24,9 @@ class Navigator {
   /// numbers its tasks from 1 again, so the id alone is not enough. `replan` applies a
   /// new path for the current task (the robot's own planner) even so.
   std::string on_task(const msg::TaskAssignment& task, const std::optional<Pose2>& local_to_global, bool replan = false);
-  /// Velocity to request now (zero when idle or done).
-  void command(const Pose2& local_pose, double* v, double* w);
+  /// Velocity to request now (zero when idle or done); `speed_now` is the robot's present
+  /// forward speed (it sets the lookahead).
+  void command(const Pose2& local_pose, double speed_now, double* v, double* w);
   bool active() const { return follower_ != nullptr && !follower_->done(); }
   std::uint32_t task_id() const { return task_id_; }
 

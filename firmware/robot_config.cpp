@@ -107,6 +107,11 @@ void check_localmap_budget(const ConfigSection& root, const ExecutiveConfig& e) 
 void read_motion(const ConfigSection& m, MotionConfig* motion) {
   motion->follower.speed = m.number_or("speed", motion->follower.speed, {0.0, 5.0});
   motion->follower.loop = m.boolean_or("loop", motion->follower.loop);
+  auto& f = motion->follower;
+  f.lookahead_time_s = m.number_or("lookahead_time_s", f.lookahead_time_s, {0.0, 10.0});
+  f.lookahead_min = m.number_or("lookahead_min", f.lookahead_min, {0.05, 10.0});
+  f.lookahead_max = m.number_or("lookahead_max", f.lookahead_max, {0.05, 10.0});
+  if (const std::string why = f.check(); !why.empty()) m.fail("lookahead_max", why);
   if (!m.has("waypoints")) return;
   const auto v = m.numbers("waypoints", 2, 2 * 256);
   if (v.size() % 2) m.fail("waypoints", "expected a flat list of x, y pairs (m, local frame), got an odd count");

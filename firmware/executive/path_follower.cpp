@@ -5,13 +5,26 @@
 
 namespace cairn::firmware {
 
-bool PathFollower::command(const Pose2& pose, double* v, double* w) {
+double FollowerConfig::lookahead(double v) const {
+  return std::max(lookahead_min, std::min(lookahead_max, lookahead_time_s * std::abs(v)));  // no clamp UB on bad settings
+}
+
+const char* FollowerConfig::check() const {
+  if (!(lookahead_min > 0)) return "lookahead_min must be > 0";
+  if (!(lookahead_max >= lookahead_min)) return "lookahead_max must be >= lookahead_min";
+  if (!(lookahead_time_s >= 0)) return "lookahead_time_s must be >= 0";
+  return "";
+}
+
+bool PathFollower::command(const Pose2& pose, double speed_now, double* v, double* w) {
   *v = *w = 0;
   // Each waypoint passed at most once per call: a loop whose waypoints all lie within reach
   // (one waypoint at the robot, say) went round for ever.
+  // A waypoint counts as passed within half the cruise lookahead: fixed, so that slowing
+  // down near it does not make the robot creep up to it.
+  const double pass_radius = std::max(c_.goal_tolerance, c_.lookahead(c_.speed) * 0.5);
   std::size_t passed = 0;
-  while (next_ < wp_.size() && passed < wp_.size() &&
-         (wp_[next_] - pose.translation()).norm() < std::max(c_.goal_tolerance, c_.lookahead * 0.5)) {
+  while (next_ < wp_.size() && passed < wp_.size() && (wp_[next_] - pose.translation()).norm() < pass_radius) {
     from_ = wp_[next_];
     has_from_ = true;
     ++next_;
@@ -20,7 +33,7 @@ bool PathFollower::command(const Pose2& pose, double* v, double* w) {
   }
   if (next_ >= wp_.size()) return false;
   if (passed == wp_.size()) return true;  // a loop with nowhere to go: hold still (v = w = 0)
-  // Pursue a point `lookahead` ahead on the segment to the next waypoint (not the
+  // Pursue a point a lookahead ahead on the segment to the next waypoint (not the
   // waypoint itself), so the robot converges onto the line instead of drifting beside it.
   const Vec2 from = has_from_ ? from_ : pose.translation();
   if (!has_from_) {
@@ -31,7 +44,7 @@ bool PathFollower::command(const Pose2& pose, double* v, double* w) {
   const double len = seg.norm();
   Vec2 target = wp_[next_];
   if (len > 1e-6) {
-    const double along = std::clamp((pose.translation() - from).dot(seg) / len + c_.lookahead, 0.0, len);
+    const double along = std::clamp((pose.translation() - from).dot(seg) / len + c_.lookahead(speed_now), 0.0, len);
     target = from + seg * (along / len);
   }
   const Vec2 local = inverse_transform_point(pose, target);

@@ -132,7 +132,8 @@ Phase run_phase(const std::string& world_path, double seconds, int priority, boo
     bridge.forward(exec);
     exec.note_link(now);
     double v = 0, w = 0;
-    follower.command(exec.rt_snapshot().local_pose, &v, &w);
+    const auto rt = exec.rt_snapshot();
+    follower.command(rt.local_pose, rt.v, &v, &w);
     exec.set_velocity(v, w, now);
     // As cairn-robot's main loop: woken by the RT thread's outputs, else at the tick.
     if (next <= now) next = now + rc.bridge_period;

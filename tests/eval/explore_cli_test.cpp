@@ -53,15 +53,15 @@ double first_time_at(const fs::path& csv, double level) {
 TEST(ExploreCli, OfficeOneAndTwoRobotsBothModes) {
   const fs::path out = fresh_dir("office");
   std::string log;
-  ASSERT_EQ(run({"--world", kWorlds + "office.world", "--robots", "1,2", "--runs", "1", "--duration", "120", "--mode",
+  ASSERT_EQ(run({"--world", kWorlds + "office.world", "--robots", "1,2", "--runs", "2", "--duration", "120", "--mode",
                  "both", "--seed", "3", "--out", out.string()},
                 &log),
             0)
       << log;
   const auto s = nlohmann::json::parse(slurp(out / "summary.json"));
-  // One robot once (both modes are the same run), two robots in both modes.
+  // One robot twice (both modes are the same runs), two robots twice in both modes.
   ASSERT_EQ(s["groups"].size(), 3u) << s.dump(2);
-  ASSERT_EQ(s["runs"].size(), 3u);
+  ASSERT_EQ(s["runs"].size(), 6u);
   const auto& g1 = s["groups"][0];
   const auto& g2 = s["groups"][1];
   const auto& u2 = s["groups"][2];
@@ -69,24 +69,26 @@ TEST(ExploreCli, OfficeOneAndTwoRobotsBothModes) {
   EXPECT_EQ(g1["robots"], 1);
   EXPECT_EQ(g2["robots"], 2);
   EXPECT_EQ(u2["mode"], "uncoordinated");
-  // Every group reached half the office within 120 s, two robots sooner than one
-  // (one robot takes about 80 s, two about 45 s).
-  for (const auto& g : s["groups"]) ASSERT_EQ(g["time_to_coverage_s"]["50"]["reached"], 1) << g.dump(2);
+  // Every run reached half the office within 120 s, two robots sooner than one on the
+  // mean of two runs (one robot takes 55-85 s, two 45-50 s; single runs vary too much: one
+  // robot's seed 3 alone was 44 s before the lookahead scaled with speed).
+  for (const auto& g : s["groups"]) ASSERT_EQ(g["time_to_coverage_s"]["50"]["reached"], 2) << g.dump(2);
   EXPECT_LT(g2["time_to_coverage_s"]["50"]["mean"].get<double>(), 0.8 * g1["time_to_coverage_s"]["50"]["mean"].get<double>());
   // The summary's times are the runs' own records, the maps are sane and written.
-  for (const auto& r : s["runs"]) {
-    const std::string name =
-        r["mode"].get<std::string>() + "-r" + std::to_string(r["robots"].get<int>()) + "-run0";
+  for (std::size_t i = 0; i < s["runs"].size(); ++i) {
+    const auto& r = s["runs"][i];
+    const std::string name = r["mode"].get<std::string>() + "-r" + std::to_string(r["robots"].get<int>()) + "-run" +
+                             std::to_string(i % 2);  // runs in order, two per group
     const fs::path dir = out / "runs" / name;
     EXPECT_DOUBLE_EQ(first_time_at(dir / "coverage.csv", 0.5), r["time_to_coverage_s"]["50"].get<double>()) << name;
     EXPECT_TRUE(fs::is_regular_file(dir / "map.png")) << name;
     EXPECT_GE(r["agreement"].get<double>(), 0.85) << name;
     EXPECT_FALSE(r["failed"].get<bool>());
-    EXPECT_EQ(r["seed"], 3);
+    EXPECT_EQ(r["seed"], 3 + static_cast<int>(i % 2));
   }
   EXPECT_TRUE(fs::is_regular_file(out / "coverage.png"));
   EXPECT_TRUE(fs::is_regular_file(out / "time_to_coverage.png"));
-  EXPECT_NE(slurp(out / "table.md").find("| uncoordinated | 2 | 1 |"), std::string::npos);
+  EXPECT_NE(slurp(out / "table.md").find("| uncoordinated | 2 | 2 |"), std::string::npos);
   fs::remove_all(out);
 }
 

@@ -44,6 +44,12 @@ TEST(RobotConfig, StatusOnlyAndFullRobot) {
   EXPECT_EQ(big.global_map.max_cells, 4000000u);
   EXPECT_DOUBLE_EQ(big.global_map.p_o, 0.7);
   EXPECT_DOUBLE_EQ(big.global_map.p_c, 0.3);
+  const auto look = firmware::parse_robot_config(
+      kDevices + "[motion]\nlookahead_time_s = 2\nlookahead_min = 0.4\nlookahead_max = 0.9\n", "robot.toml");
+  EXPECT_DOUBLE_EQ(look.motion.follower.lookahead(0.1), 0.4);
+  EXPECT_DOUBLE_EQ(look.motion.follower.lookahead(0.3), 0.6);
+  EXPECT_DOUBLE_EQ(look.motion.follower.lookahead(-0.3), 0.6) << "reversing looks as far";
+  EXPECT_DOUBLE_EQ(look.motion.follower.lookahead(2.0), 0.9);
 }
 
 TEST(RobotConfig, ErrorsNameTheKey) {
@@ -52,6 +58,8 @@ TEST(RobotConfig, ErrorsNameTheKey) {
   EXPECT_NE(error_of(kDevices + "drive_nodes = [3, 3]\n").find("different node ids"), std::string::npos);
   EXPECT_NE(error_of(kDevices + "lms_resolution_deg = 0.25\n").find("lms_angle_deg = 100"), std::string::npos);
   EXPECT_NE(error_of(kDevices + "[motion]\nwaypoints = [1, 2, 3]\n").find("odd count"), std::string::npos);
+  EXPECT_NE(error_of(kDevices + "[motion]\nlookahead_min = 1\nlookahead_max = 0.5\n").find("motion.lookahead_max"),
+            std::string::npos);
   EXPECT_NE(error_of(kDevices + "[rt]\nperiod_s = 0.5\n").find("rt.period_s"), std::string::npos);
   EXPECT_NE(error_of(kDevices + "[mapping]\nfeature_period_s = 11\n").find("mapping.feature_period_s"), std::string::npos);
   EXPECT_NE(error_of(kDevices + "[map]\nmax_cells = 4095\n").find("map.max_cells"), std::string::npos);
@@ -89,7 +97,7 @@ TEST(Navigator, GotoIsFollowedInTheLocalFrameThroughTheCorrection) {
   firmware::MotionConfig m;
   firmware::Navigator nav(m);
   double v = 1, w = 1;
-  nav.command({}, &v, &w);
+  nav.command({}, 0.0, &v, &w);
   EXPECT_EQ(v, 0.0);  // no route, no task: stand still
   EXPECT_NE(nav.on_task(goto_task(7, 10, 5), std::nullopt).find("no PoseCorrection"), std::string::npos);
   EXPECT_FALSE(nav.active());
@@ -98,7 +106,7 @@ TEST(Navigator, GotoIsFollowedInTheLocalFrameThroughTheCorrection) {
   const Pose2 local_to_global{10, 3, M_PI / 2};
   EXPECT_EQ(nav.on_task(goto_task(8, 10, 5), local_to_global), "");
   EXPECT_TRUE(nav.active());
-  nav.command({}, &v, &w);
+  nav.command({}, 0.0, &v, &w);
   EXPECT_GT(v, 0.0);
   EXPECT_NEAR(w, 0.0, 1e-6);
   auto nan_task = goto_task(9, std::nan(""), 0);
@@ -128,7 +136,7 @@ TEST(Navigator, ARestartedBasesTaskWithAnOldIdIsNotTakenForARepeat) {
   ASSERT_EQ(nav.on_task(goto_task(2, 0, 3), local_to_global), "");
   EXPECT_TRUE(nav.active());
   double v = 0, w = 0;
-  nav.command({}, &v, &w);
+  nav.command({}, 0.0, &v, &w);
   EXPECT_GT(w, 0.0) << "turning towards (0, 3)";
 }
 

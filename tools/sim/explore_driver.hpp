@@ -25,9 +25,11 @@ struct ExploreConfig {
   explore::GridPlannerConfig planner;      // max_cells is set from the map
   explore::AllocatorConfig allocator;
   /// The robots' path follower in exploration (replaces FleetSimConfig::follower): a short
-  /// lookahead and an early turn in place, so corners of the planned path in doors are not
-  /// cut (the scripted tours' 0.6 m lookahead clipped door frames).
-  firmware::FollowerConfig follower{.speed = 0.6, .lookahead = 0.35, .turn_in_place_rad = 0.5};
+  /// lookahead (0.36 m at cruise, down to 0.2 m while slow) and an early turn in place, so
+  /// corners of the planned path in doors are not cut (the scripted tours' 0.6 m lookahead
+  /// clipped door frames).
+  firmware::FollowerConfig follower{
+      .speed = 0.6, .turn_in_place_rad = 0.5, .lookahead_time_s = 0.6, .lookahead_min = 0.2, .lookahead_max = 0.6};
   /// After a bump the robot first backs straight off for this long at this speed, then
   /// follows its replanned path (a stand-in for the missing protective field and recovery:
   /// pushing on against a door frame slips the wheels and corrupts odometry).

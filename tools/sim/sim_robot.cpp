@@ -122,7 +122,7 @@ void SimRobot::tick(Nanos now, firmware::RobotOutputs& out) {
     if (now < back_off_until_) {
       v = -back_off_speed_;
     } else {
-      follower_.command(core_.local_pose(), &v, &w);
+      follower_.command(core_.local_pose(), core_.v(), &v, &w);
     }
     firmware::ControlInputs in;
     in.now = now;
