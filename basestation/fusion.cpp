@@ -405,19 +405,27 @@ void Fusion::apply_features(const msg::FeatureObservations& m, Track& t) {
   }
   // χ² gate on each observation's innovation before it enters the update.
   std::vector<Measurement> gated;
+  std::vector<double> gated_nis;
   for (const Measurement& meas : batch) {
     const ccml::Innovation inn = filter_.innovation(meas);
-    if (!inn.nu.allFinite() || !inn.S.allFinite() || !(inn.nis() <= gate)) {
+    const double nis = inn.nis();
+    if (!inn.nu.allFinite() || !inn.S.allFinite() || !(nis <= gate)) {
       counters_.rejected.count(Reject::kInnovationGate);
       continue;
     }
     gated.push_back(meas);
+    gated_nis.push_back(nis);
   }
   if (!gated.empty()) {
     const ccml::UpdateResult u = filter_.update(gated, config_.iterations);
     if (u.applied) {
       counters_.observations_used += gated.size();
-      for (const Measurement& meas : gated) counters_.robot_observations_used += meas.target_kind == Measurement::Target::kRobot;
+      for (std::size_t k = 0; k < gated.size(); ++k) {
+        const bool robot = gated[k].target_kind == Measurement::Target::kRobot;
+        counters_.robot_observations_used += robot;
+        (robot ? counters_.nis_sum_robot : counters_.nis_sum_landmark) += gated_nis[k];
+        ++(robot ? counters_.nis_count_robot : counters_.nis_count_landmark);
+      }
     } else if (u.refused) {
       counters_.rejected.count(Reject::kFilterRefused);
     }

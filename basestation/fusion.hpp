@@ -75,6 +75,11 @@ struct FusionCounters {
   // Unread ones are paired with the one robot that alone explains them, or not at all.
   std::uint64_t robot_sightings = 0, robot_sightings_unidentified = 0, robot_observations_used = 0;
   std::uint64_t robot_sightings_paired = 0, robot_sightings_unpaired = 0;
+  // Normalised innovation squared of the observations that passed the gate, summed by kind
+  // (landmark, robot): with the stated covariances right, each mean is about 2 (the gate
+  // cuts its tail). Far below 2, the covariances claim too little; far above, too much.
+  double nis_sum_landmark = 0, nis_sum_robot = 0;
+  std::uint64_t nis_count_landmark = 0, nis_count_robot = 0;
   RejectCounters rejected;  // by reason: messages and observations not applied
 };
 

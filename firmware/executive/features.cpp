@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/LU>
+
 #include "firmware/executive/marker_decoder.hpp"
 
 namespace cairn::firmware {
@@ -97,6 +99,21 @@ Vec2 beam_point(const lms::LmsScan& scan, std::size_t i) {
   return {r * std::cos(a), r * std::sin(a)};
 }
 
+// A fitted body centre's (range, bearing) covariance in the robot frame: the Gauss-Newton
+// fit's s²(JᵀJ)⁻¹ (sensor frame; s² the residuals' variance with two parameters fitted,
+// floored) plus the motion allowance, rotated by the mount and taken through the Jacobian of
+// range and bearing at the centre `p` (robot frame).
+Mat2 body_covariance(const Mat2& jtj, double sq, std::size_t n, const Pose2& mount, const Vec2& p, const FeatureConfig& cfg) {
+  const double s2 = std::max(sq / static_cast<double>(n - 2), cfg.body_sigma_floor_m * cfg.body_sigma_floor_m);
+  const Mat2 fit = s2 * jtj.inverse() + cfg.body_sigma_motion_m * cfg.body_sigma_motion_m * Mat2::Identity();
+  const Mat2 rot = mount.rotation();
+  const Mat2 xy = rot * fit * rot.transpose();
+  const double r2 = std::max(p.squaredNorm(), 1e-12), r = std::sqrt(r2);
+  Mat2 j;
+  j << p.x() / r, p.y() / r, -p.y() / r2, p.x() / r2;
+  return j * xy * j.transpose();
+}
+
 // Cluster [first, last] as a robot's body: a circle of the fleet's body radius, convex
 // towards the laser, fitted to its points (Gauss-Newton on the centre, a fixed number of
 // steps). If it is one, `*f` is the robot at the body's centre with the code its tape says.
@@ -126,13 +143,17 @@ bool fit_body(const lms::LmsScan& scan, std::size_t first, std::size_t last, con
     c -= Vec2(jtj(1, 1) * jtr.x() - jtj(0, 1) * jtr.y(), jtj(0, 0) * jtr.y() - jtj(1, 0) * jtr.x()) / det;
   }
   double sq = 0;
+  Mat2 jtj = Mat2::Zero();
   for (std::size_t i = first; i <= last; ++i) {
-    const double e = (beam_point(scan, i) - c).norm() - R;
-    sq += e * e;
+    const Vec2 d = beam_point(scan, i) - c;
+    const double len = std::max(d.norm(), 1e-9);
+    sq += (len - R) * (len - R);
+    jtj += d * d.transpose() / (len * len);
   }
   // Not a body: points off the circle, or the circle behind the laser's side of them
   // (the inside of a curved wall).
   if (!(std::sqrt(sq / static_cast<double>(n)) <= cfg.body_fit_rms_m) || !(c.norm() > mean.norm())) return false;
+  if (!(jtj.determinant() > 1e-12)) return false;  // points along one line through the centre: no covariance
 
   // Each beam placed round the body: where its line meets the circle (measured ranges are
   // noisiest at grazing beams), as an angle round the centre from the point facing the laser.
@@ -156,7 +177,7 @@ bool fit_body(const lms::LmsScan& scan, std::size_t first, std::size_t last, con
   const RangeBearing rb = observe_point(Pose2{}, transform_point(mount, c));
   f->range = rb.range;
   f->bearing = rb.bearing;
-  f->covariance << cfg.sigma_range_m * cfg.sigma_range_m, 0, 0, cfg.sigma_bearing_rad * cfg.sigma_bearing_rad;
+  f->covariance = body_covariance(jtj, sq, n, mount, transform_point(mount, c), cfg);
   return true;
 }
 

@@ -31,6 +31,14 @@ struct FeatureConfig {
   double max_range_step_m = 0.15;          // range jump that splits a run
   double sigma_range_m = 0.03;     // measured on the HIL bench incl. pose error (docs/firmware.md)
   double sigma_bearing_rad = 0.01;
+  // A fitted body's centre has the fit's own covariance s²(JᵀJ)⁻¹, s the points' scatter
+  // round the circle but at least body_sigma_floor_m (the range readings' 1 mm resolution:
+  // the scanner's 5 mm range noise is no floor, a beam meeting the body at a slant scatters
+  // less than that across it, and that floor overstated the covariance 1.7x), plus
+  // body_sigma_motion_m² in each direction: the seen robot moves during the sweep, and the
+  // base holds its pose at its own latest odometry, up to a scan period away.
+  double body_sigma_floor_m = 0.001;
+  double body_sigma_motion_m = 0.01;
   double max_range_m = 30.0;
 };
 

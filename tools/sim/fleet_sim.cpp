@@ -330,6 +330,8 @@ FleetSummary FleetSim::summary(double wall_seconds) const {
   s.robot_sightings_unidentified = fcount.robot_sightings_unidentified;
   s.robot_observations_used = fcount.robot_observations_used;
   s.robot_sightings_paired = fcount.robot_sightings_paired;
+  if (fcount.nis_count_robot) s.sighting_nis_mean = fcount.nis_sum_robot / static_cast<double>(fcount.nis_count_robot);
+  if (fcount.nis_count_landmark) s.landmark_nis_mean = fcount.nis_sum_landmark / static_cast<double>(fcount.nis_count_landmark);
   for (const auto& box : outboxes_) {
     s.messages += box->sent;
     s.messages_lost += box->lost;

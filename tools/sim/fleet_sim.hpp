@@ -106,6 +106,9 @@ struct FleetSummary {
   // Robots seen by robots (shared world): sightings, those without a read marker, those fused.
   std::uint64_t robot_sightings = 0, robot_sightings_unidentified = 0, robot_observations_used = 0;
   std::uint64_t robot_sightings_paired = 0;  // unread ones paired with the one robot that explains them
+  // Mean NIS of the fused sightings and landmark observations (FusionCounters; 0 if none):
+  // about 2 when the stated covariances are right.
+  double sighting_nis_mean = 0, landmark_nis_mean = 0;
   tools::MapQuality map;              // the central grid against the world's ground truth
   std::uint64_t map_scans = 0, map_scans_unplaced = 0;  // LaserScans inserted / not yet placeable
   double sim_seconds = 0, wall_seconds = 0, speed_factor = 0, steps_per_second = 0;

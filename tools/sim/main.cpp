@@ -54,7 +54,9 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                        {{"seen", s.robot_sightings},
                         {"unidentified", s.robot_sightings_unidentified},
                         {"unidentified_paired", s.robot_sightings_paired},
-                        {"fused", s.robot_observations_used}}},
+                        {"fused", s.robot_observations_used},
+                        {"nis_mean", s.sighting_nis_mean}}},
+                      {"landmark_nis_mean", s.landmark_nis_mean},
                       {"map",
                        {{"scans_inserted", s.map_scans},
                         {"scans_unplaced", s.map_scans_unplaced},
@@ -174,6 +176,8 @@ int run(const sim::FleetSimConfig& cfg, const std::string& out, bool json) {
     std::printf("robots seen by robots: %llu sightings, %llu without a read marker (%llu of them paired), %llu fused\n",
                 static_cast<unsigned long long>(s.robot_sightings), static_cast<unsigned long long>(s.robot_sightings_unidentified),
                 static_cast<unsigned long long>(s.robot_sightings_paired), static_cast<unsigned long long>(s.robot_observations_used));
+    std::printf("mean NIS of fused observations (about 2 if their covariances are right): landmarks %.2f, sightings %.2f\n",
+                s.landmark_nis_mean, s.sighting_nis_mean);
     if (!s.coverage.empty()) {
       std::printf("coverage %.3f, agreement %.3f; time to", s.map.coverage, s.map.agreement);
       for (std::size_t k = 0; k < 4; ++k) {
