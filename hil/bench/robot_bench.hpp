@@ -58,8 +58,9 @@ struct TruthSample {
 
 class RobotBench {
  public:
-  /// `bodies` (may be null: the robot is alone in its world) holds this robot's body and
-  /// the others', shared with their benches; it must outlive this bench.
+  /// `bodies` (may be null: the robot is alone in its world) holds this robot's body (at
+  /// cfg.start, of cfg.body_radius) and the others', shared with their benches; it must
+  /// outlive this bench.
   RobotBench(const World& world, const RobotBenchConfig& cfg, FleetBodies* bodies = nullptr);
   ~RobotBench();
   void start();
