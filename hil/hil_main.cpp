@@ -61,6 +61,7 @@ struct RobotsOptions {
   std::vector<std::string> faults;
   double duration = 0, report_period = 5.0;
   bool lms_tcp = false;
+  bool shared_world = false;
   std::string can_iface, lms_uart, lms_host_uri;
   std::uint32_t lms_uart_baud = 38400;
 };
@@ -79,6 +80,7 @@ int run_robots(const RobotsOptions& o) {
   cfg.lms_uart = o.lms_uart;
   cfg.lms_host_uri = o.lms_host_uri;
   cfg.lms_uart_baud = o.lms_uart_baud;
+  cfg.shared_world = o.shared_world;
   for (const std::string& f : o.faults) cfg.faults.push_back(hil::ScheduledFault::parse(f));
   hil::FleetBench fleet(world, cfg);
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> truth(nullptr, &std::fclose);
@@ -108,6 +110,11 @@ int run_robots(const RobotsOptions& o) {
     const Nanos now = clock.now();
     const double t = nanos_to_seconds(now - start);
     for (const std::string& line : fleet.apply_faults(t)) std::printf("[%8.3f] cairn-hil: %s\n", t, line.c_str());
+    for (const hil::RobotContacts& c : fleet.new_contacts()) {
+      std::printf("[%8.3f] cairn-hil: contact: robot %d and robot %d touch (contact %llu between them)\n", t, c.a, c.b,
+                  static_cast<unsigned long long>(c.contacts));
+      if (truth) std::fprintf(truth.get(), "# contact %.3f %d %d\n", t, c.a, c.b);
+    }
     if (truth) fleet.write_truth(truth.get(), t);
     if (now >= next_report) {
       next_report += seconds_to_nanos(o.report_period);
@@ -125,8 +132,22 @@ int run_robots(const RobotsOptions& o) {
   if (truth) fleet.write_truth(truth.get(), t);
   for (std::size_t i = 0; i < fleet.size(); ++i) {
     const hil::TruthSample s = fleet.bench(i).truth();
-    std::printf("cairn-hil: final robot %d at %.3f %.3f %.4f rad, travelled %.2f m\n", fleet.id(i), s.pose.x, s.pose.y,
+    std::printf("cairn-hil: final robot %d at %.3f %.3f %.4f rad, travelled %.2f m", fleet.id(i), s.pose.x, s.pose.y,
                 s.pose.theta, s.odometer);
+    if (o.shared_world) {
+      std::printf(", blocked %llu step(s) by obstacles and %llu by robots", static_cast<unsigned long long>(s.wall_bumps),
+                  static_cast<unsigned long long>(s.robot_contacts));
+    }
+    std::printf("\n");
+  }
+  if (o.shared_world) {
+    const auto contacts = fleet.contacts();
+    std::printf("cairn-hil: %zu pair(s) of robots touched\n", contacts.size());
+    for (const hil::RobotContacts& c : contacts) {
+      std::printf("cairn-hil: contacts robot %d and robot %d: %llu (%llu step(s) refused)\n", c.a, c.b,
+                  static_cast<unsigned long long>(c.contacts), static_cast<unsigned long long>(c.refused_moves));
+      if (truth) std::fprintf(truth.get(), "# contacts %d %d %llu\n", c.a, c.b, static_cast<unsigned long long>(c.contacts));
+    }
   }
   std::fflush(stdout);
   fleet.stop();
@@ -164,6 +185,9 @@ int main(int argc, char** argv) {
   robots->add_option("--duration", ro.duration, "stop after this many seconds (0 = until SIGINT/SIGTERM)");
   robots->add_option("--report", ro.report_period, "seconds between ground-truth progress lines")->capture_default_str();
   robots->add_flag("--lms-tcp", ro.lms_tcp, "serve the lasers on 127.0.0.1 TCP ports instead of ptys");
+  robots->add_flag("--shared-world", ro.shared_world,
+                   "one world for all robots: each laser sees the other robots' bodies and a body stops at another "
+                   "(contacts are logged and counted)");
   // The VM bench's real devices (scripts/vm-bench.sh): one robot.
   robots->add_option("--can-iface", ro.can_iface, "the drives on this SocketCAN interface (e.g. vcan0) instead of a user-space bus; one robot");
   auto* uart = robots->add_option("--lms-uart", ro.lms_uart, "serve the laser on this serial port (e.g. /dev/ttyS2); one robot");

@@ -56,10 +56,11 @@ FleetBench::FleetBench(const World& world, const FleetBenchConfig& cfg) : world_
   if (cfg.lms_uart.empty() != cfg.lms_host_uri.empty()) {
     throw std::runtime_error("HIL fleet: a laser UART needs the URI of its other end, and only then (--lms-uart with --lms-host-uri)");
   }
+  std::vector<RobotBenchConfig> configs;
   for (int id : cfg.robots) {
     const auto start = world.start(id);
     if (!start) throw std::runtime_error("HIL fleet: world " + world.name() + " has no 'start " + std::to_string(id) + " X Y THETA' line");
-    RobotBenchConfig bc;
+    RobotBenchConfig& bc = configs.emplace_back();
     bc.robot_id = id;
     bc.start = *start;
     bc.lms_tcp = cfg.lms_tcp;
@@ -67,8 +68,14 @@ FleetBench::FleetBench(const World& world, const FleetBenchConfig& cfg) : world_
     bc.lms_uart = cfg.lms_uart;
     bc.lms_host_uri = cfg.lms_host_uri;
     bc.lms_uart_baud = cfg.lms_uart_baud;
-    benches_.push_back(std::make_unique<RobotBench>(world, bc));
   }
+  if (cfg.shared_world) {
+    std::vector<Body> bodies;
+    for (const RobotBenchConfig& bc : configs) bodies.push_back({bc.robot_id, bc.start, bc.body_radius});
+    bodies_ = std::make_unique<FleetBodies>(std::move(bodies));  // throws for a repeated id
+    contacts_seen_.assign(configs.size() * configs.size(), 0);
+  }
+  for (const RobotBenchConfig& bc : configs) benches_.push_back(std::make_unique<RobotBench>(world, bc, bodies_.get()));
   for (const ScheduledFault& f : cfg.faults) {
     bool found = false;
     for (int id : cfg.robots) found = found || id == f.robot;
@@ -175,6 +182,34 @@ void FleetBench::write_truth(std::FILE* out, double t_s) const {
     const TruthSample s = benches_[i]->truth();
     std::fprintf(out, "%.3f %d %.4f %.4f %.5f %.3f\n", t_s, cfg_.robots[i], s.pose.x, s.pose.y, s.pose.theta, s.odometer);
   }
+}
+
+std::vector<RobotContacts> FleetBench::new_contacts() {
+  std::vector<RobotContacts> out;
+  if (!bodies_) return out;
+  const std::size_t n = cfg_.robots.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 1; j < n; ++j) {
+      const int a = cfg_.robots[i], b = cfg_.robots[j];
+      const std::uint64_t c = bodies_->contacts(a, b);
+      std::uint64_t& seen = contacts_seen_[i * n + j];
+      if (c != seen) out.push_back({a, b, c, bodies_->refused_moves(a, b)});
+      seen = c;
+    }
+  }
+  return out;
+}
+
+std::vector<RobotContacts> FleetBench::contacts() const {
+  std::vector<RobotContacts> out;
+  if (!bodies_) return out;
+  for (std::size_t i = 0; i < cfg_.robots.size(); ++i) {
+    for (std::size_t j = i + 1; j < cfg_.robots.size(); ++j) {
+      const int a = cfg_.robots[i], b = cfg_.robots[j];
+      if (const std::uint64_t c = bodies_->contacts(a, b); c > 0) out.push_back({a, b, c, bodies_->refused_moves(a, b)});
+    }
+  }
+  return out;
 }
 
 }  // namespace cairn::hil

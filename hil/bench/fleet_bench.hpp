@@ -1,7 +1,9 @@
 // Several robots' benches in one world, served to other processes: for each robot, its
 // emulated LMS2xx, CiA 402 drives and power board (hil/bench/robot_bench.hpp), a robot
 // configuration written from a template with the emulators' URIs and the robot's route
-// (taken into its local frame), a ground-truth log, and scheduled device faults.
+// (taken into its local frame), a ground-truth log, and scheduled device faults. With
+// shared_world the robots share one set of bodies (hil/world/fleet_bodies.hpp): they see
+// each other with their lasers and stop at each other; contacts are reported.
 #pragma once
 
 #include <cstdio>
@@ -35,6 +37,14 @@ struct FleetBenchConfig {
   std::string can_iface, lms_uart, lms_host_uri;
   std::uint32_t lms_uart_baud = 38400;
   std::vector<ScheduledFault> faults;
+  bool shared_world = false;          // one world: robots see and stop at each other
+};
+
+/// Contacts between two robots so far (shared world).
+struct RobotContacts {
+  int a = 0, b = 0;
+  std::uint64_t contacts = 0;       // separate touches
+  std::uint64_t refused_moves = 0;  // physics steps refused (either robot pushing)
 };
 
 class FleetBench {
@@ -50,6 +60,11 @@ class FleetBench {
   std::vector<std::string> apply_faults(double t_s);
   /// Appends one truth line per robot: "t_s id x y theta odometer_m".
   void write_truth(std::FILE* out, double t_s) const;
+  /// Shared world: every pair of robots that came into contact since the last call
+  /// (none without a shared world).
+  std::vector<RobotContacts> new_contacts();
+  /// Shared world: every pair that ever touched, with totals.
+  std::vector<RobotContacts> contacts() const;
   std::size_t size() const { return benches_.size(); }
   int id(std::size_t i) const { return cfg_.robots[i]; }
   RobotBench& bench(std::size_t i) { return *benches_[i]; }
@@ -60,7 +75,9 @@ class FleetBench {
   void set_fault(const ScheduledFault& f, bool on);
   const World& world_;
   FleetBenchConfig cfg_;
+  std::unique_ptr<FleetBodies> bodies_;  // shared world only; outlives the benches
   std::vector<std::unique_ptr<RobotBench>> benches_;
+  std::vector<std::uint64_t> contacts_seen_;  // per pair (i < j, row-major), for new_contacts()
   std::vector<int> fault_state_;  // 0 pending, 1 active, 2 over
 };
 

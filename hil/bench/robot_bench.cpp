@@ -8,8 +8,17 @@
 
 namespace cairn::hil {
 
-RobotBench::RobotBench(const World& world, const RobotBenchConfig& cfg)
-    : cfg_(cfg), physics_world_(world), sensor_world_(world) {
+RobotBench::RobotBench(const World& world, const RobotBenchConfig& cfg, FleetBodies* bodies)
+    : cfg_(cfg), bodies_(bodies), physics_world_(world), sensor_world_(world) {
+  if (bodies_) {
+    if (bodies_->body(cfg.robot_id).radius != cfg.body_radius) {  // throws for a robot it lacks
+      throw std::runtime_error("HIL bench: robot " + std::to_string(cfg.robot_id) + "'s shared body has another radius");
+    }
+    // The others go into the sensor's world now, so that moving them later allocates nothing.
+    others_.resize(bodies_->size());
+    const std::size_t n = bodies_->snapshot_others(cfg.robot_id, others_);
+    for (std::size_t i = 0; i < n; ++i) sensor_world_.set_robot(others_[i].id, others_[i].pose, others_[i].radius);
+  }
   const std::string path = cfg.bus_path.empty()
                                ? "/tmp/cairn-hil-can-" + std::to_string(getpid()) + "-" + std::to_string(cfg.robot_id)
                                : cfg.bus_path;
@@ -28,8 +37,9 @@ RobotBench::RobotBench(const World& world, const RobotBenchConfig& cfg)
     drives_.push_back(std::make_unique<DriveRunner>(std::move(port), dc));
   }
   power_ = std::make_unique<PowerEmulator>(PowerEmulator::Link::kTcp, modbus::RegisterMap{}, BatteryConfig{});
-  robot_ = std::make_unique<DiffRobot>(cfg.robot_id, cfg.geometry, cfg.start, 0.3, &physics_world_);
+  robot_ = std::make_unique<DiffRobot>(cfg.robot_id, cfg.geometry, cfg.start, cfg.body_radius, &physics_world_);
   robot_->set_wheel_scale(cfg.wheel_scale_left, cfg.wheel_scale_right);
+  robot_->share_bodies(bodies_);
   truth_.pose = cfg.start;
   LmsDeviceConfig lms = cfg.lms;
   if (!cfg.lms_uart.empty()) {
@@ -40,12 +50,7 @@ RobotBench::RobotBench(const World& world, const RobotBenchConfig& cfg)
   const LmsServer::Link link = !cfg.lms_uart.empty() ? LmsServer::Link::kUart
                                : cfg.lms_tcp           ? LmsServer::Link::kTcp
                                                        : LmsServer::Link::kPty;
-  lms_ = std::make_unique<LmsServer>(link, lms, &sensor_world_,
-                                     [this](Nanos) {
-                                       std::lock_guard l(mutex_);
-                                       return compose(truth_.pose, cfg_.laser_mount);
-                                     },
-                                     0, cfg.lms_uart);
+  lms_ = std::make_unique<LmsServer>(link, lms, &sensor_world_, [this](Nanos) { return sensor_pose(); }, 0, cfg.lms_uart);
 }
 
 RobotBench::~RobotBench() { stop(); }
@@ -69,6 +74,17 @@ TruthSample RobotBench::truth() const {
   return truth_;
 }
 
+// Called by the LMS device right before it casts a sweep against sensor_world_, on the LMS
+// server's thread and under its lock (the only place sensor_world_ is touched once running).
+Pose2 RobotBench::sensor_pose() {
+  if (bodies_) {
+    const std::size_t n = bodies_->snapshot_others(cfg_.robot_id, others_);
+    for (std::size_t i = 0; i < n; ++i) sensor_world_.set_robot(others_[i].id, others_[i].pose, others_[i].radius);
+  }
+  std::lock_guard l(mutex_);
+  return compose(truth_.pose, cfg_.laser_mount);
+}
+
 void RobotBench::physics() {
   auto& clock = MonotonicClock::instance();
   Nanos last = clock.now(), next = last;
@@ -81,7 +97,7 @@ void RobotBench::physics() {
     robot_->step(l, r, nanos_to_seconds(now - last));
     last = now;
     std::lock_guard lock(mutex_);
-    truth_ = {now, robot_->pose(), robot_->odometer()};
+    truth_ = {now, robot_->pose(), robot_->odometer(), robot_->bumps(), robot_->robot_contacts()};
   }
 }
 

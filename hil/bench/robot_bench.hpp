@@ -3,6 +3,8 @@
 // body's true pose through the laser mount) and its power-board emulator. The production
 // firmware connects to lms_uri(), can_uri() and power_uri() exactly as to real devices.
 // Physics runs in its own thread at 200 Hz; the true pose is kept for the tests.
+// Given FleetBodies (one world for several benches), the body also stops at the other
+// robots' bodies and the laser sees them where they stand at each scan.
 #pragma once
 
 #include <atomic>
@@ -17,6 +19,7 @@
 #include "hil/lms2xx/lms_server.hpp"
 #include "hil/power/power_emulator.hpp"
 #include "hil/robot/diff_robot.hpp"
+#include "hil/world/fleet_bodies.hpp"
 #include "hil/world/world.hpp"
 
 namespace cairn::hil {
@@ -26,6 +29,7 @@ struct RobotBenchConfig {
   Pose2 start{1.5, 10.0, 0.0};
   std::string bus_path;                       // the CAN hub's socket ("" = a fresh one in /tmp)
   Pose2 laser_mount{0.2, 0.0, 0.0};
+  double body_radius = 0.3;
   double wheel_scale_left = 1.01, wheel_scale_right = 0.995;  // true radius / nominal: odometry drifts
   canopen::DiffDriveGeometry geometry;
   LmsDeviceConfig lms;
@@ -48,11 +52,16 @@ struct TruthSample {
   Nanos t = 0;
   Pose2 pose;
   double odometer = 0;
+  std::uint64_t wall_bumps = 0;      // physics steps blocked by the world's obstacles
+  std::uint64_t robot_contacts = 0;  // ... by another robot's body (shared world only)
 };
 
 class RobotBench {
  public:
-  RobotBench(const World& world, const RobotBenchConfig& cfg);
+  /// `bodies` (may be null: the robot is alone in its world) holds this robot's body (at
+  /// cfg.start, of cfg.body_radius) and the others', shared with their benches; it must
+  /// outlive this bench.
+  RobotBench(const World& world, const RobotBenchConfig& cfg, FleetBodies* bodies = nullptr);
   ~RobotBench();
   void start();
   void stop();
@@ -68,8 +77,13 @@ class RobotBench {
 
  private:
   void physics();
+  Pose2 sensor_pose();
   RobotBenchConfig cfg_;
-  World physics_world_, sensor_world_;  // the sensor's copy is read-only while it runs
+  FleetBodies* bodies_;
+  // The sensor's copy is only touched by the LMS server's thread under its lock: the
+  // other robots are placed in it there, just before each sweep is cast.
+  World physics_world_, sensor_world_;
+  std::vector<Body> others_;  // sized at construction: placing them allocates nothing
   std::unique_ptr<can::Hub> hub_;
   std::vector<std::unique_ptr<DriveRunner>> drives_;
   std::unique_ptr<PowerEmulator> power_;

@@ -12,12 +12,23 @@ void DiffRobot::step(double left_motor, double right_motor, double dt) {
   const Pose2 next = compose(pose_, arc_motion(v, w, dt));
   if (world_->collides(next.translation(), radius_, id_)) {
     ++bumps_;  // blocked: the wheels slip, the robot turns in place at most
-    pose_.theta = next.theta;
+    turn_in_place(next.theta);
+    return;
+  }
+  // Checked against the others' current poses and committed at once (FleetBodies' lock).
+  if (bodies_ && bodies_->try_move(id_, next) != 0) {
+    ++robot_contacts_;
+    turn_in_place(next.theta);
     return;
   }
   odometer_ += std::abs(v * dt);
   pose_ = next;
   world_->set_robot(id_, pose_, radius_);
+}
+
+void DiffRobot::turn_in_place(double theta) {
+  pose_.theta = theta;
+  if (bodies_) bodies_->try_move(id_, pose_);  // same place: always allowed; the others see the new heading
 }
 
 }  // namespace cairn::hil

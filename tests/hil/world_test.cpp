@@ -5,6 +5,8 @@
 
 #include <filesystem>
 
+#include "hil/world/fleet_bodies.hpp"
+
 namespace cairn::hil {
 namespace {
 
@@ -66,6 +68,41 @@ TEST(World, RobotsAreReflectiveMovingCircles) {
   EXPECT_FALSE(w.collides({3, 3}, 0.2));
   EXPECT_TRUE(w.collides({0.1, 3}, 0.2));
   EXPECT_TRUE(w.poles().empty());
+}
+
+// The shared world as a robot's laser sees it on the bench: the other robots, copied from
+// the shared bodies into its own copy of the world, are hit with their marker's tape, and
+// follow the bodies when they move, without the world growing.
+TEST(World, OtherRobotsCopiedFromSharedBodiesAreSeenWithTheirMarkers) {
+  const World base = World::parse("box 0 0 20 10\n", "t");
+  FleetBodies bodies({{1, {5, 5, 0}, 0.3}, {2, {7, 5, M_PI - 0.2}, 0.3}});
+  World sensor_world = base;
+  Body others[1];
+  auto place_others = [&] {
+    const std::size_t n = bodies.snapshot_others(1, others);
+    for (std::size_t i = 0; i < n; ++i) sensor_world.set_robot(others[i].id, others[i].pose, others[i].radius);
+  };
+  place_others();
+  const std::size_t circles = sensor_world.circles().size();
+  const Vec2 laser{5.2, 5};  // robot 1's laser mount, looking along +x
+  RayHit h = sensor_world.cast(laser, 0.0, 30.0);
+  EXPECT_NEAR(h.range, 1.5, 1e-12);  // robot 2's surface at x = 6.7
+  EXPECT_EQ(h.robot, 2);
+  EXPECT_TRUE(h.reflective);  // 0.2 rad into code 2's first tape run
+  // Robot 2 turns: the beam meets its bare stretch (80 deg round).
+  ASSERT_EQ(bodies.try_move(2, {7, 5, M_PI - 1.4}), 0);
+  place_others();
+  h = sensor_world.cast(laser, 0.0, 30.0);
+  EXPECT_EQ(h.robot, 2);
+  EXPECT_FALSE(h.reflective);
+  // Robot 2 drives out of the beam: the wall behind it at x = 20.
+  ASSERT_EQ(bodies.try_move(2, {7, 8, M_PI - 1.4}), 0);
+  place_others();
+  h = sensor_world.cast(laser, 0.0, 30.0);
+  EXPECT_NEAR(h.range, 14.8, 1e-9);
+  EXPECT_EQ(h.robot, 0);
+  EXPECT_EQ(sensor_world.circles().size(), circles);
+  EXPECT_TRUE(base.circles().empty());  // the world it was copied from is untouched
 }
 
 TEST(World, ErrorsNameFileAndLine) {
