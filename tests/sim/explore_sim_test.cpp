@@ -96,6 +96,56 @@ TEST(ExploreSim, UncoordinatedRobotsShareFrontiersMoreOften) {
   EXPECT_LT(u.explore->driver.periods_on_distinct_frontiers, first().s.explore->driver.periods_on_distinct_frontiers);
 }
 
+// An operator's visit request (cairn-sim --visit): at 30 s robot 2 is asked to go to
+// (12.5, 10), in the corridor; it leaves its frontier, gets there, and the allocator counts
+// the arrival. A request for a robot the base does not know (9) is refused by the base's
+// checks, as cairn-base refuses it. (A target in a room not yet mapped fails instead:
+// paths never enter unknown cells, and the monitor takes the visit back after 20 s.)
+TEST(ExploreSim, AVisitRequestSendsTheRobotThereAndBack) {
+  sim::FleetSimConfig c = office_explore(5);
+  c.duration_s = 90;
+  const Vec2 target(12.5, 10.0);
+  c.exploration.visits = {sim::ScheduledVisit::parse("30:2:12.5:10"), sim::ScheduledVisit::parse("31:9:1:1")};
+  sim::FleetSim f(c);
+  f.run();
+  const sim::FleetSummary s = f.summary(1.0);
+  ASSERT_TRUE(s.explore.has_value());
+  EXPECT_EQ(s.explore->driver.visits_taken, 1u);
+  EXPECT_EQ(s.explore->driver.visits_refused, 1u);
+  EXPECT_EQ(s.explore->allocator.visits_requested, 1u);
+  EXPECT_EQ(s.explore->allocator.visits_arrived, 1u);
+  EXPECT_EQ(s.explore->allocator.visits_failed, 0u);
+  double before = 1e9, after = 1e9, arrived_at = -1, last = 0;
+  for (const sim::RobotSample& r : f.samples()) {
+    if (r.robot != 2) continue;
+    const double d = (r.truth.translation() - target).norm();
+    last = d;
+    if (r.t < 30 * kNanosPerSecond) {
+      before = std::min(before, d);
+    } else if (d < after) {
+      after = d;
+      if (d < 0.5 && arrived_at < 0) arrived_at = nanos_to_seconds(r.t);
+    }
+  }
+  std::printf("robot 2: closest to the target %.2f m before the request, %.2f m after (within 0.5 m at %.1f s)\n", before,
+              after, arrived_at);
+  EXPECT_GT(before, 1.0) << "the robot was not there anyway";
+  EXPECT_LT(after, 0.5);
+  EXPECT_LT(arrived_at, 60.0);
+  std::printf("robot 2 ends %.2f m from the target\n", last);
+  EXPECT_GT(last, 2.0) << "back to exploring after the visit";
+}
+
+TEST(ExploreSim, AVisitIsWrittenTimeRobotXY) {
+  const sim::ScheduledVisit v = sim::ScheduledVisit::parse("12.5:3:-1:2.25");
+  EXPECT_EQ(v.at, 12500 * kNanosPerMilli);
+  EXPECT_EQ(v.robot, 3);
+  EXPECT_EQ(v.target, Vec2(-1, 2.25));
+  for (const char* bad : {"", "1:2:3", "1:2:3:4:5", "x:1:2:3", "-1:1:0:0", "1:0:0:0", "1:70000:0:0", "1:1:0:0 "}) {
+    EXPECT_THROW(sim::ScheduledVisit::parse(bad), std::invalid_argument) << "'" << bad << "'";
+  }
+}
+
 TEST(ExploreSim, SameSeedSameRun) {
   const Outcome& a = first();
   const Outcome b = run(5);

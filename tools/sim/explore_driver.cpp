@@ -1,14 +1,50 @@
 #include "tools/sim/explore_driver.hpp"
 
 #include <algorithm>
+#include <cstdio>
+#include <stdexcept>
+
+#include "basestation/explore/visit_check.hpp"
 
 namespace cairn::sim {
+
+ScheduledVisit ScheduledVisit::parse(const std::string& text) {
+  double t = 0, x = 0, y = 0;
+  unsigned robot = 0;
+  int used = 0;
+  if (std::sscanf(text.c_str(), "%lf:%u:%lf:%lf%n", &t, &robot, &x, &y, &used) != 4 ||
+      used != static_cast<int>(text.size())) {
+    throw std::invalid_argument("visit '" + text + "': expected T:ROBOT:X:Y (seconds, robot id, global metres)");
+  }
+  if (!(t >= 0 && t <= 1e6)) throw std::invalid_argument("visit '" + text + "': time must be 0..1e6 s");
+  if (robot < 1 || robot > 65535) throw std::invalid_argument("visit '" + text + "': robot id must be 1..65535");
+  return {seconds_to_nanos(t), static_cast<std::uint16_t>(robot), Vec2(x, y)};
+}
 
 ExploreDriver::ExploreDriver(const ExploreConfig& config, std::size_t max_cells)
     : config_(config),
       bidder_(explore::sized(config.bidder, max_cells)),
       planner_(explore::sized(config.planner, max_cells)),
-      allocator_(config.allocator) {}
+      allocator_(config.allocator) {
+  std::stable_sort(config_.visits.begin(), config_.visits.end(),
+                   [](const ScheduledVisit& a, const ScheduledVisit& b) { return a.at < b.at; });
+}
+
+void ExploreDriver::take_visits(Nanos now, const std::vector<RobotView>& robots) {
+  for (; next_visit_ < config_.visits.size() && config_.visits[next_visit_].at <= now; ++next_visit_) {
+    const ScheduledVisit& sv = config_.visits[next_visit_];
+    msg::VisitRequest v{};
+    v.robot_id = sv.robot;
+    v.x = sv.target.x();
+    v.y = sv.target.y();
+    const auto r = std::find_if(robots.begin(), robots.end(), [&](const RobotView& rv) { return rv.id == sv.robot; });
+    base::VisitVerdict verdict = base::check_visit(v, r != robots.end() && r->localised);
+    if (verdict == base::VisitVerdict::kAccepted && !allocator_.request_visit(sv.robot, sv.target, now)) {
+      verdict = base::VisitVerdict::kRobotLost;
+    }
+    ++(verdict == base::VisitVerdict::kAccepted ? counters_.visits_taken : counters_.visits_refused);
+  }
+}
 
 void ExploreDriver::plan_for(std::size_t index, const RobotView& r, std::vector<PathOrder>* orders, bool back_off) {
   const auto task = allocator_.task(r.id);
@@ -37,6 +73,7 @@ bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, boo
   for (const RobotView& r : robots) {
     if (r.localised) allocator_.on_robot_pose(r.id, r.global.translation(), now);
   }
+  take_visits(now, robots);
   if (bid_now) {
     for (const RobotView& r : robots) {
       if (!r.localised) continue;

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "basestation/explore/task_allocator.hpp"
@@ -18,6 +19,16 @@
 #include "firmware/explore/grid_planner.hpp"
 
 namespace cairn::sim {
+
+/// "Robot r, visit (x, y)" at a simulated time, as an operator's VisitRequest: "T:ROBOT:X:Y"
+/// (seconds from start, robot id, global metres), e.g. "30:2:17.5:5". Throws
+/// std::invalid_argument with the reason.
+struct ScheduledVisit {
+  Nanos at = 0;
+  std::uint16_t robot = 0;
+  Vec2 target = Vec2::Zero();
+  static ScheduledVisit parse(const std::string& text);
+};
 
 struct ExploreConfig {
   Nanos bid_period = 2 * kNanosPerSecond;  // bids (and replans of active tasks) this often
@@ -35,6 +46,9 @@ struct ExploreConfig {
   /// pushing on against a door frame slips the wheels and corrupts odometry).
   Nanos back_off = 1500 * kNanosPerMilli;
   double back_off_speed = 0.15;  // m/s
+  /// Operator visit requests, passed through the base's checks (basestation/explore/
+  /// visit_check.hpp) to the allocator when due, as cairn-base does with the DDS topic.
+  std::vector<ScheduledVisit> visits;
 };
 
 struct ExploreCounters {
@@ -43,6 +57,7 @@ struct ExploreCounters {
   /// Bid periods in which at least two robots held explore tasks on different frontiers
   /// (targets farther apart than the allocator's same_frontier_m): the coordination seen.
   std::uint64_t periods_on_distinct_frontiers = 0;
+  std::uint64_t visits_taken = 0, visits_refused = 0;  // scheduled visits the base's checks passed / refused
 };
 
 class ExploreDriver {
@@ -85,6 +100,7 @@ class ExploreDriver {
 
  private:
   bool advance(Nanos now, const std::vector<RobotView>& robots, bool bid_now, std::vector<PathOrder>* orders);
+  void take_visits(Nanos now, const std::vector<RobotView>& robots);
   void plan_for(std::size_t index, const RobotView& r, std::vector<PathOrder>* orders, bool back_off = false);
 
   ExploreConfig config_;
@@ -101,6 +117,7 @@ class ExploreDriver {
   bool explored_ = false;
   Nanos explored_at_ = 0;
   ExploreCounters counters_;
+  std::size_t next_visit_ = 0;  // config_.visits is sorted by time
 };
 
 }  // namespace cairn::sim

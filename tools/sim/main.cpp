@@ -87,7 +87,11 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                       {"timeouts", a.timeouts},
                       {"bars_set", a.bars_set},
                       {"explored_reports", a.explored_reports},
-                      {"assignments_emitted", a.assignments_emitted}}},
+                      {"assignments_emitted", a.assignments_emitted},
+                      {"visits_requested", a.visits_requested},
+                      {"visits_rejected", a.visits_rejected},
+                      {"visits_arrived", a.visits_arrived},
+                      {"visits_failed", a.visits_failed}}},
                     {"driver",
                      {{"bids", d.bids},
                       {"bids_no_frontier", d.bids_no_frontier},
@@ -95,7 +99,9 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                       {"plans", d.plans},
                       {"plan_failures", d.plan_failures},
                       {"replans_after_bump", d.replans_after_bump},
-                      {"periods_on_distinct_frontiers", d.periods_on_distinct_frontiers}}}};
+                      {"periods_on_distinct_frontiers", d.periods_on_distinct_frontiers},
+                      {"visits_taken", d.visits_taken},
+                      {"visits_refused", d.visits_refused}}}};
   }
   if (with_wall_time) {
     j["wall_seconds"] = s.wall_seconds;
@@ -196,6 +202,13 @@ int run(const sim::FleetSimConfig& cfg, const std::string& out, bool json) {
                   static_cast<unsigned long long>(s.explore->allocator.explore_assigned),
                   static_cast<unsigned long long>(s.explore->allocator.timeouts),
                   static_cast<unsigned long long>(s.explore->driver.plan_failures));
+    const auto& a = s.explore->allocator;
+    const auto& d = s.explore->driver;
+    if (d.visits_taken + d.visits_refused > 0) {
+      std::printf("visits: %llu taken, %llu refused by the base's checks; %llu arrived, %llu failed\n",
+                  static_cast<unsigned long long>(d.visits_taken), static_cast<unsigned long long>(d.visits_refused),
+                  static_cast<unsigned long long>(a.visits_arrived), static_cast<unsigned long long>(a.visits_failed));
+    }
     }
     std::printf("%.0f simulated s in %.1f wall s: %.1fx real time, %.0f steps/s\n", s.sim_seconds, s.wall_seconds,
                 s.speed_factor, s.steps_per_second);
@@ -235,6 +248,11 @@ int main(int argc, char** argv) {
   app.add_flag("--explore", cfg.explore,
                "explore instead of the scripted tours: frontier bids on the base's map, the base's task allocator, "
                "paths on the map; ends when the base reports the world explored or at --duration (docs/explore.md)");
+  std::vector<std::string> visits;
+  app.add_option("--visit", visits,
+                 "T:ROBOT:X:Y: at T simulated s, an operator asks robot ROBOT to visit (X, Y) (global m), as "
+                 "cairn-base --visit does; the others cover for it, it rejoins exploration when there or failed "
+                 "(repeatable; needs --explore; docs/explore.md)");
   double coverage_period_s = -1;
   app.add_option("--coverage-period", coverage_period_s,
                  "record the map's coverage this often, simulated s (coverage.csv; default 5 with --explore, else off)")
@@ -246,6 +264,8 @@ int main(int argc, char** argv) {
   return run_program("cairn-sim", [&] {
     cfg.link_latency = static_cast<Nanos>(latency_ms * 1e6);
     cfg.robot_observations = !alone;
+    if (!visits.empty() && !cfg.explore) throw std::invalid_argument("--visit needs --explore");
+    for (const std::string& v : visits) cfg.exploration.visits.push_back(sim::ScheduledVisit::parse(v));
     if (coverage_period_s < 0) coverage_period_s = cfg.explore ? 5.0 : 0.0;
     cfg.coverage_period = static_cast<Nanos>(coverage_period_s * 1e9);
     if (!robot_config.empty()) {
