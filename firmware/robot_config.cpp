@@ -89,6 +89,7 @@ void read_mapping(const ConfigSection& m, ExecutiveConfig* e) {
   e->localmap.grid.size_cells = static_cast<int>(m.integer_or("grid_cells", e->localmap.grid.size_cells, {64, 4096}));
   e->localmap.grid.resolution_m = m.number_or("grid_resolution_m", e->localmap.grid.resolution_m, {0.01, 0.5});
   e->localmap.max_range_m = m.number_or("max_range_m", e->localmap.max_range_m, {0.5, 80.0});
+  e->localmap.map_relative_drift = m.boolean_or("map_relative_drift", e->localmap.map_relative_drift);
   if (const char* why = localmap::validate(e->localmap)) m.fail("keyframes", std::string("local map: ") + why);
 }
 

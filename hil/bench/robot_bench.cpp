@@ -11,8 +11,13 @@ namespace cairn::hil {
 RobotBench::RobotBench(const World& world, const RobotBenchConfig& cfg, FleetBodies* bodies)
     : cfg_(cfg), bodies_(bodies), physics_world_(world), sensor_world_(world) {
   if (bodies_) {
-    if (bodies_->body(cfg.robot_id).radius != cfg.body_radius) {  // throws for a robot it lacks
+    const Body mine = bodies_->body(cfg.robot_id);  // throws for a robot it lacks
+    if (mine.radius != cfg.body_radius) {
       throw std::runtime_error("HIL bench: robot " + std::to_string(cfg.robot_id) + "'s shared body has another radius");
+    }
+    // A body elsewhere would be judged from where it is not until its first move.
+    if ((mine.pose.translation() - cfg.start.translation()).norm() > 1e-9) {
+      throw std::runtime_error("HIL bench: robot " + std::to_string(cfg.robot_id) + "'s shared body is not at its start pose");
     }
     // The others go into the sensor's world now, so that moving them later allocates nothing.
     others_.resize(bodies_->size());

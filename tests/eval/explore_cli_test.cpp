@@ -70,8 +70,9 @@ TEST(ExploreCli, OfficeOneAndTwoRobotsBothModes) {
   EXPECT_EQ(g2["robots"], 2);
   EXPECT_EQ(u2["mode"], "uncoordinated");
   // Every run reached half the office within 120 s, two robots sooner than one on the
-  // mean of two runs (one robot takes 55-85 s, two 45-50 s; single runs vary too much: one
-  // robot's seed 3 alone was 44 s before the lookahead scaled with speed).
+  // mean of two runs (seeds 3, 4: one robot 55 and 85 s, two 45 and 50 s). One run was
+  // asserted until the lookahead scaled with speed; then seed 3 alone had two robots at
+  // 0.82 of one (45 against 55 s), over the 0.8 bound: single runs vary too much.
   for (const auto& g : s["groups"]) ASSERT_EQ(g["time_to_coverage_s"]["50"]["reached"], 2) << g.dump(2);
   EXPECT_LT(g2["time_to_coverage_s"]["50"]["mean"].get<double>(), 0.8 * g1["time_to_coverage_s"]["50"]["mean"].get<double>());
   // The summary's times are the runs' own records, the maps are sane and written.

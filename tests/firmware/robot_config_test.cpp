@@ -50,6 +50,9 @@ TEST(RobotConfig, StatusOnlyAndFullRobot) {
   EXPECT_DOUBLE_EQ(look.motion.follower.lookahead(0.3), 0.6);
   EXPECT_DOUBLE_EQ(look.motion.follower.lookahead(-0.3), 0.6) << "reversing looks as far";
   EXPECT_DOUBLE_EQ(look.motion.follower.lookahead(2.0), 0.9);
+  EXPECT_FALSE(look.executive.localmap.map_relative_drift) << "default";
+  EXPECT_TRUE(firmware::parse_robot_config(kDevices + "[mapping]\nmap_relative_drift = true\n", "robot.toml")
+                  .executive.localmap.map_relative_drift);
 }
 
 TEST(RobotConfig, ErrorsNameTheKey) {

@@ -141,7 +141,9 @@ TEST(ExploreSim, AVisitIsWrittenTimeRobotXY) {
   EXPECT_EQ(v.at, 12500 * kNanosPerMilli);
   EXPECT_EQ(v.robot, 3);
   EXPECT_EQ(v.target, Vec2(-1, 2.25));
-  for (const char* bad : {"", "1:2:3", "1:2:3:4:5", "x:1:2:3", "-1:1:0:0", "1:0:0:0", "1:70000:0:0", "1:1:0:0 "}) {
+  for (const char* bad : {"", "1:2:3", "1:2:3:4:5", "x:1:2:3", "-1:1:0:0", "1:0:0:0", "1:70000:0:0", "1:1:0:0 ",
+                          "1: 1:0:0", "1:-1:0:0", "1:-4294967295:0:0", "1:99999999999999999999:0:0", "1:1:nan:0",
+                          "1:1:0:inf", "1:1:20000:0", "1e400:1:0:0", "::::"}) {
     EXPECT_THROW(sim::ScheduledVisit::parse(bad), std::invalid_argument) << "'" << bad << "'";
   }
 }

@@ -1,23 +1,48 @@
 #include "tools/sim/explore_driver.hpp"
 
 #include <algorithm>
-#include <cstdio>
+#include <array>
+#include <charconv>
+#include <cmath>
 #include <stdexcept>
+#include <string_view>
 
 #include "basestation/explore/visit_check.hpp"
 
 namespace cairn::sim {
 
 ScheduledVisit ScheduledVisit::parse(const std::string& text) {
-  double t = 0, x = 0, y = 0;
-  unsigned robot = 0;
-  int used = 0;
-  if (std::sscanf(text.c_str(), "%lf:%u:%lf:%lf%n", &t, &robot, &x, &y, &used) != 4 ||
-      used != static_cast<int>(text.size())) {
-    throw std::invalid_argument("visit '" + text + "': expected T:ROBOT:X:Y (seconds, robot id, global metres)");
+  const auto fail = [&](const std::string& why) {
+    return std::invalid_argument("visit '" + text + "': " + why);
+  };
+  // Four fields split at ':', each parsed whole (from_chars: no sign wrap, no blanks, no overflow UB).
+  std::array<std::string_view, 4> field;
+  std::string_view rest = text;
+  for (std::size_t k = 0; k < field.size(); ++k) {
+    const std::size_t colon = rest.find(':');
+    if ((k + 1 < field.size()) == (colon == std::string_view::npos)) {
+      throw fail("expected T:ROBOT:X:Y (seconds, robot id, global metres)");
+    }
+    field[k] = rest.substr(0, colon);
+    rest = colon == std::string_view::npos ? std::string_view() : rest.substr(colon + 1);
   }
-  if (!(t >= 0 && t <= 1e6)) throw std::invalid_argument("visit '" + text + "': time must be 0..1e6 s");
-  if (robot < 1 || robot > 65535) throw std::invalid_argument("visit '" + text + "': robot id must be 1..65535");
+  const auto number = [&](std::string_view f, const char* what) {
+    double v = 0;
+    const auto [end, ec] = std::from_chars(f.data(), f.data() + f.size(), v);
+    if (f.empty() || ec != std::errc() || end != f.data() + f.size() || !std::isfinite(v)) {
+      throw fail(std::string(what) + " '" + std::string(f) + "' is not a finite number");
+    }
+    return v;
+  };
+  const double t = number(field[0], "time"), x = number(field[2], "x"), y = number(field[3], "y");
+  unsigned robot = 0;
+  const auto [end, ec] = std::from_chars(field[1].data(), field[1].data() + field[1].size(), robot);
+  if (field[1].empty() || ec != std::errc() || end != field[1].data() + field[1].size() || robot < 1 || robot > 65535) {
+    throw fail("robot id '" + std::string(field[1]) + "' must be 1..65535");
+  }
+  if (!(t >= 0 && t <= 1e6)) throw fail("time must be 0..1e6 s");
+  const msg::VisitRequest v{static_cast<std::uint16_t>(robot), 0, 0, x, y, {}};
+  if (base::check_visit(v, true) == base::VisitVerdict::kTooFar) throw fail(base::visit_verdict_text(base::VisitVerdict::kTooFar));
   return {seconds_to_nanos(t), static_cast<std::uint16_t>(robot), Vec2(x, y)};
 }
 

@@ -58,9 +58,12 @@ struct FleetSimConfig {
 /// The speeds cairn-sim's command line and `cairn-eval explore` run the simulated robots at:
 /// the safety cap raised to 1 m/s (the built-in robot configuration caps at 0.8 m/s) and
 /// the scripted tours at 0.8 m/s. Exploration follows paths at ExploreConfig::follower's speed.
+/// The tours look 0.75 s ahead: 0.6 m at cruise, as when the lookahead was fixed (the
+/// figures in docs/sim.md and docs/markers.md were measured so).
 inline void set_tool_speeds(FleetSimConfig* cfg) {
   cfg->robot.safety.max_v = 1.0;
   cfg->follower.speed = 0.8;
+  cfg->follower.lookahead_time_s = 0.75;
 }
 
 struct CoverageSample {
@@ -106,9 +109,9 @@ struct FleetSummary {
   // Robots seen by robots (shared world): sightings, those without a read marker, those fused.
   std::uint64_t robot_sightings = 0, robot_sightings_unidentified = 0, robot_observations_used = 0;
   std::uint64_t robot_sightings_paired = 0;  // unread ones paired with the one robot that explains them
-  // Mean NIS of the fused sightings and landmark observations (FusionCounters; 0 if none):
-  // about 2 when the stated covariances are right.
-  double sighting_nis_mean = 0, landmark_nis_mean = 0;
+  // Mean NIS of the fused sightings and landmark observations (FusionCounters; none if
+  // nothing of the kind was fused): about 2 when the stated covariances are right.
+  std::optional<double> sighting_nis_mean, landmark_nis_mean;
   tools::MapQuality map;              // the central grid against the world's ground truth
   std::uint64_t map_scans = 0, map_scans_unplaced = 0;  // LaserScans inserted / not yet placeable
   double sim_seconds = 0, wall_seconds = 0, speed_factor = 0, steps_per_second = 0;

@@ -55,8 +55,8 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                         {"unidentified", s.robot_sightings_unidentified},
                         {"unidentified_paired", s.robot_sightings_paired},
                         {"fused", s.robot_observations_used},
-                        {"nis_mean", s.sighting_nis_mean}}},
-                      {"landmark_nis_mean", s.landmark_nis_mean},
+                        {"nis_mean", s.sighting_nis_mean ? nlohmann::json(*s.sighting_nis_mean) : nlohmann::json()}}},
+                      {"landmark_nis_mean", s.landmark_nis_mean ? nlohmann::json(*s.landmark_nis_mean) : nlohmann::json()},
                       {"map",
                        {{"scans_inserted", s.map_scans},
                         {"scans_unplaced", s.map_scans_unplaced},
@@ -182,8 +182,13 @@ int run(const sim::FleetSimConfig& cfg, const std::string& out, bool json) {
     std::printf("robots seen by robots: %llu sightings, %llu without a read marker (%llu of them paired), %llu fused\n",
                 static_cast<unsigned long long>(s.robot_sightings), static_cast<unsigned long long>(s.robot_sightings_unidentified),
                 static_cast<unsigned long long>(s.robot_sightings_paired), static_cast<unsigned long long>(s.robot_observations_used));
-    std::printf("mean NIS of fused observations (about 2 if their covariances are right): landmarks %.2f, sightings %.2f\n",
-                s.landmark_nis_mean, s.sighting_nis_mean);
+    const auto nis = [](const std::optional<double>& mean) {
+      char text[32] = "n/a (none fused)";
+      if (mean) std::snprintf(text, sizeof text, "%.2f", *mean);
+      return std::string(text);
+    };
+    std::printf("mean NIS of fused observations (about 2 if their covariances are right): landmarks %s, sightings %s\n",
+                nis(s.landmark_nis_mean).c_str(), nis(s.sighting_nis_mean).c_str());
     if (!s.coverage.empty()) {
       std::printf("coverage %.3f, agreement %.3f; time to", s.map.coverage, s.map.agreement);
       for (std::size_t k = 0; k < 4; ++k) {
@@ -265,7 +270,18 @@ int main(int argc, char** argv) {
     cfg.link_latency = static_cast<Nanos>(latency_ms * 1e6);
     cfg.robot_observations = !alone;
     if (!visits.empty() && !cfg.explore) throw std::invalid_argument("--visit needs --explore");
-    for (const std::string& v : visits) cfg.exploration.visits.push_back(sim::ScheduledVisit::parse(v));
+    for (const std::string& v : visits) {
+      const sim::ScheduledVisit sv = sim::ScheduledVisit::parse(v);
+      if (sv.robot > cfg.robots) {
+        throw std::invalid_argument("visit '" + v + "': robot " + std::to_string(sv.robot) + " is not in the fleet (--robots " +
+                                    std::to_string(cfg.robots) + ": ids 1.." + std::to_string(cfg.robots) + ")");
+      }
+      if (nanos_to_seconds(sv.at) >= cfg.duration_s) {
+        std::fprintf(stderr, "cairn-sim: warning: visit '%s' is due after the run's end (--duration %g)\n", v.c_str(),
+                     cfg.duration_s);
+      }
+      cfg.exploration.visits.push_back(sv);
+    }
     if (coverage_period_s < 0) coverage_period_s = cfg.explore ? 5.0 : 0.0;
     cfg.coverage_period = static_cast<Nanos>(coverage_period_s * 1e9);
     if (!robot_config.empty()) {
