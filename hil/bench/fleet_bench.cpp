@@ -184,31 +184,33 @@ void FleetBench::write_truth(std::FILE* out, double t_s) const {
   }
 }
 
-std::vector<RobotContacts> FleetBench::new_contacts() {
-  std::vector<RobotContacts> out;
-  if (!bodies_) return out;
+template <class F>
+void FleetBench::for_each_pair(F&& f) const {
   const std::size_t n = cfg_.robots.size();
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t j = i + 1; j < n; ++j) {
       const int a = cfg_.robots[i], b = cfg_.robots[j];
-      const std::uint64_t c = bodies_->contacts(a, b);
-      std::uint64_t& seen = contacts_seen_[i * n + j];
-      if (c != seen) out.push_back({a, b, c, bodies_->refused_moves(a, b)});
-      seen = c;
+      f(i * n + j, RobotContacts{a, b, bodies_->contacts(a, b), bodies_->refused_moves(a, b)});
     }
   }
+}
+
+std::vector<RobotContacts> FleetBench::new_contacts() {
+  std::vector<RobotContacts> out;
+  if (!bodies_) return out;
+  for_each_pair([&](std::size_t k, const RobotContacts& c) {
+    if (c.contacts != contacts_seen_[k]) out.push_back(c);
+    contacts_seen_[k] = c.contacts;
+  });
   return out;
 }
 
 std::vector<RobotContacts> FleetBench::contacts() const {
   std::vector<RobotContacts> out;
   if (!bodies_) return out;
-  for (std::size_t i = 0; i < cfg_.robots.size(); ++i) {
-    for (std::size_t j = i + 1; j < cfg_.robots.size(); ++j) {
-      const int a = cfg_.robots[i], b = cfg_.robots[j];
-      if (const std::uint64_t c = bodies_->contacts(a, b); c > 0) out.push_back({a, b, c, bodies_->refused_moves(a, b)});
-    }
-  }
+  for_each_pair([&](std::size_t, const RobotContacts& c) {
+    if (c.contacts > 0) out.push_back(c);
+  });
   return out;
 }
 

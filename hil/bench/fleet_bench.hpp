@@ -77,6 +77,8 @@ class FleetBench {
   FleetBenchConfig cfg_;
   std::unique_ptr<FleetBodies> bodies_;  // shared world only; outlives the benches
   std::vector<std::unique_ptr<RobotBench>> benches_;
+  template <class F>
+  void for_each_pair(F&& f) const;  // f(pair index, its contacts), robots i < j in config order
   std::vector<std::uint64_t> contacts_seen_;  // per pair (i < j, row-major), for new_contacts()
   std::vector<int> fault_state_;  // 0 pending, 1 active, 2 over
 };

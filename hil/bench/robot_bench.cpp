@@ -21,8 +21,7 @@ RobotBench::RobotBench(const World& world, const RobotBenchConfig& cfg, FleetBod
     }
     // The others go into the sensor's world now, so that moving them later allocates nothing.
     others_.resize(bodies_->size());
-    const std::size_t n = bodies_->snapshot_others(cfg.robot_id, others_);
-    for (std::size_t i = 0; i < n; ++i) sensor_world_.set_robot(others_[i].id, others_[i].pose, others_[i].radius);
+    place_others();
   }
   const std::string path = cfg.bus_path.empty()
                                ? "/tmp/cairn-hil-can-" + std::to_string(getpid()) + "-" + std::to_string(cfg.robot_id)
@@ -79,13 +78,15 @@ TruthSample RobotBench::truth() const {
   return truth_;
 }
 
+void RobotBench::place_others() {
+  const std::size_t n = bodies_->snapshot_others(cfg_.robot_id, others_);
+  for (std::size_t i = 0; i < n; ++i) sensor_world_.set_robot(others_[i].id, others_[i].pose, others_[i].radius);
+}
+
 // Called by the LMS device right before it casts a sweep against sensor_world_, on the LMS
 // server's thread and under its lock (the only place sensor_world_ is touched once running).
 Pose2 RobotBench::sensor_pose() {
-  if (bodies_) {
-    const std::size_t n = bodies_->snapshot_others(cfg_.robot_id, others_);
-    for (std::size_t i = 0; i < n; ++i) sensor_world_.set_robot(others_[i].id, others_[i].pose, others_[i].radius);
-  }
+  if (bodies_) place_others();
   std::lock_guard l(mutex_);
   return compose(truth_.pose, cfg_.laser_mount);
 }

@@ -78,6 +78,7 @@ class RobotBench {
  private:
   void physics();
   Pose2 sensor_pose();
+  void place_others();  // the other bodies, where they stand now, into sensor_world_
   RobotBenchConfig cfg_;
   FleetBodies* bodies_;
   // The sensor's copy is only touched by the LMS server's thread under its lock: the
