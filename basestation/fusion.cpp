@@ -265,44 +265,29 @@ bool Fusion::reexpress(msg::FeatureObservations* m, const Track& t) const {
 }
 
 void Fusion::pair_unread_robots(ccml::RobotId me, const std::vector<UnreadSighting>& u, std::vector<Measurement>* batch) {
-  const std::size_t n = u.size();
-  // Each sighting to the one localised robot whose predicted position explains it (inside
-  // the innovation gate) while no other comes even close (inside the far stricter gate a
-  // new landmark must clear); two sightings in one scan claiming the same robot: neither.
-  // With a fleet of a few robots this is what joint compatibility would decide too.
-  const double gate = ccml::chi2_quantile(config_.limits.innovation_confidence, 2);
-  const double far = ccml::chi2_quantile(config_.new_feature_confidence, 2);
-  std::vector<std::uint16_t> chosen(n, 0);
-  for (std::size_t k = 0; k < n; ++k) {
-    std::uint16_t best = 0;
-    bool ambiguous = false;
-    for (const auto& [id, track] : tracks_) {
-      if (id == me || !track.localized || !filter_.has_robot(id)) continue;
-      const double nis = filter_.innovation({me, Measurement::Target::kRobot, id, u[k].z, u[k].R}).nis();
-      if (!(nis <= far)) continue;
-      if (best != 0 || !(nis <= gate)) {
-        ambiguous = true;
-        break;
-      }
-      best = id;
-    }
-    if (ambiguous || best == 0) {
-      ++counters_.robot_sightings_unpaired;
-      continue;
-    }
-    chosen[k] = best;
+  if (u.empty()) return;
+  std::vector<RangeBearing> z;
+  std::vector<Mat2> R;
+  for (const UnreadSighting& s : u) {
+    z.push_back(s.z);
+    R.push_back(s.R);
   }
-  for (std::size_t k = 0; k < n; ++k) {
-    if (chosen[k] == 0) continue;
-    bool twice = false;
-    for (std::size_t l = 0; l < n; ++l) twice = twice || (l != k && chosen[l] == chosen[k]);
-    if (twice) {
+  std::vector<ccml::RobotId> candidates;
+  for (const auto& [id, track] : tracks_) {
+    if (id != me && track.localized && filter_.has_robot(id)) candidates.push_back(id);
+  }
+  // JCBB among the robots: the sightings are paired jointly, and one the equally good
+  // hypotheses disagree on is left out.
+  const ccml::JcbbResult jr = ccml::jcbb_robots(filter_, me, z, R, candidates, config_.jcbb);
+  for (std::size_t k = 0; k < u.size(); ++k) {
+    if (jr.budget_exhausted || !jr.pairing[k]) {
       ++counters_.robot_sightings_unpaired;
       continue;
     }
     ++counters_.robot_sightings_paired;
-    batch->push_back({me, Measurement::Target::kRobot, chosen[k], u[k].z, u[k].R});
+    batch->push_back({me, Measurement::Target::kRobot, *jr.pairing[k], u[k].z, u[k].R});
   }
+  if (jr.budget_exhausted) counters_.rejected.count(Reject::kSearchIncomplete);
 }
 
 void Fusion::apply_features(const msg::FeatureObservations& m, Track& t) {
@@ -320,7 +305,7 @@ void Fusion::apply_features(const msg::FeatureObservations& m, Track& t) {
     const RangeBearing z{f.range, normalize_angle(f.bearing)};
     if (f.kind == msg::FeatureKind::kRobot) {
       ++counters_.robot_sightings;
-      if (f.marker_id == -1) {  // a marker not read: paired below, if one robot alone explains it
+      if (f.marker_id == -1) {  // a marker not read: paired below by JCBB among the robots
         ++counters_.robot_sightings_unidentified;
         if (config_.robot_observations && t.localized) unread.push_back({z, mat2(f.cov)});
         continue;

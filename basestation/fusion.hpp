@@ -72,7 +72,7 @@ struct FusionCounters {
   std::uint64_t robots_joined = 0, robots_localized = 0, robots_restarted = 0;
   // Robots seen by robots: all sightings, those whose marker was not read, and those that
   // entered an applied update.
-  // Unread ones are paired with the one robot that alone explains them, or not at all.
+  // Unread ones are paired by JCBB among the robots (jcbb_robots), or not at all.
   std::uint64_t robot_sightings = 0, robot_sightings_unidentified = 0, robot_observations_used = 0;
   std::uint64_t robot_sightings_paired = 0, robot_sightings_unpaired = 0;
   // Normalised innovation squared of the observations that passed the gate, summed by kind
@@ -161,7 +161,7 @@ class Fusion {
     RangeBearing z;
     Mat2 R;
   };
-  /// Pairs each unread sighting with the one robot that explains it, into `batch`.
+  /// Pairs the unread sightings with robots by JCBB among robots (uncontested pairings only), into `batch`.
   void pair_unread_robots(ccml::RobotId me, const std::vector<UnreadSighting>& unread, std::vector<ccml::Measurement>* batch);
   void remember(Track& t, const Mat3& cov);
   /// Re-expresses a late message's features from the robot's current pose; false if too old.

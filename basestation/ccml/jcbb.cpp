@@ -35,15 +35,21 @@ namespace {
 
 struct Search {
   Search(const CcmlFilter& f, RobotId o, std::span<const RangeBearing> zs, std::span<const Mat2> Rs,
-         std::span<const FeatureId> c, const JcbbConfig& config)
-      : filter(f), observer(o), z(zs), R(Rs), candidates(c), cfg(config) {}
+         std::span<const std::uint32_t> c, Measurement::Target k, const JcbbConfig& config)
+      : filter(f), observer(o), z(zs), R(Rs), candidates(c), kind(k), cfg(config) {}
   const CcmlFilter& filter;
   RobotId observer;
   std::span<const RangeBearing> z;
   std::span<const Mat2> R;
-  std::span<const FeatureId> candidates;
+  std::span<const std::uint32_t> candidates;  // feature or robot ids, by `kind`
+  Measurement::Target kind;
   const JcbbConfig& cfg;
   bool relocation = false;
+  // Settled mode (robots): every hypothesis with the most pairings is visited, and an
+  // observation the ties do not agree on is contested. `tie` is the first of them.
+  bool settled = false;
+  std::vector<int> tie;
+  std::vector<bool> contested;
 
   std::vector<std::vector<int>> compatible;  // per observation: candidate indices passing the individual test
   std::vector<int> current;                  // candidate index or -1 per observation
@@ -86,7 +92,7 @@ struct Search {
       if (current[i] < 0) continue;
       Measurement m;
       m.observer = observer;
-      m.target_kind = Measurement::Target::kFeature;
+      m.target_kind = kind;
       m.target = candidates[current[i]];
       m.z = z[i];
       m.R = R[i];
@@ -160,6 +166,13 @@ struct Search {
     const int m = static_cast<int>(z.size());
     if (i == m) {
       if (relocation && pairings >= 2 && pose) remember(pairings, nis, *pose);
+      if (settled && pairings > 0 && pairings >= best_pairings) {
+        if (pairings > best_pairings) {
+          tie = current;
+          contested.assign(current.size(), false);
+        }
+        for (std::size_t k = 0; k < current.size(); ++k) contested[k] = contested[k] || current[k] != tie[k];
+      }
       if (pairings > best_pairings || (pairings == best_pairings && pairings > 0 && nis < best_nis)) {
         // In relocation mode one pairing says nothing about the pose: require two.
         if (relocation && pairings < 2) return;
@@ -187,21 +200,22 @@ struct Search {
     const int reach = pairings + (m - i - 1);
     if (relocation) {
       if (reach >= best_pairings - cfg.relocation_margin) recurse(i + 1, pairings, nis, pose);
+    } else if (settled) {
+      if (reach >= best_pairings) recurse(i + 1, pairings, nis, pose);  // ties too: they may disagree
     } else if (reach >= best_pairings && !(reach == best_pairings && best_pairings > 0 && nis >= best_nis)) {
       recurse(i + 1, pairings, nis, pose);
     }
   }
 };
 
-}  // namespace
-
-JcbbResult jcbb(const CcmlFilter& filter, RobotId observer, std::span<const RangeBearing> z, std::span<const Mat2> R,
-                std::span<const FeatureId> candidates, const JcbbConfig& cfg) {
-  Search s(filter, observer, z, R, candidates, cfg);
+JcbbResult run(Search& s) {
+  const CcmlFilter& filter = s.filter;
+  const RobotId observer = s.observer;
+  const auto z = s.z;
+  const auto R = s.R;
+  const auto candidates = s.candidates;
+  const JcbbConfig& cfg = s.cfg;
   const std::size_t m = z.size();
-  const Mat3 pc = filter.robot_cov(observer);
-  const double pos_sigma = std::sqrt(std::max(pc(0, 0), pc(1, 1)));
-  s.relocation = pos_sigma > cfg.relocation_sigma;
   s.compatible.resize(m);
   s.current.assign(m, -1);
   s.used.assign(candidates.size(), false);
@@ -222,6 +236,7 @@ JcbbResult jcbb(const CcmlFilter& filter, RobotId observer, std::span<const Rang
       }
       Measurement meas;
       meas.observer = observer;
+      meas.target_kind = s.kind;
       meas.target = candidates[j];
       meas.z = z[i];
       meas.R = R[i];
@@ -235,6 +250,13 @@ JcbbResult jcbb(const CcmlFilter& filter, RobotId observer, std::span<const Rang
   if (!s.best.empty()) {
     for (std::size_t i = 0; i < m; ++i) {
       if (s.best[i] >= 0) r.pairing[i] = candidates[s.best[i]];
+    }
+  }
+  if (s.settled) {
+    for (std::size_t i = 0; i < m && !s.contested.empty(); ++i) {
+      if (!s.contested[i]) continue;
+      r.pairing[i].reset();
+      r.ambiguous = true;
     }
   }
   r.pairings = s.best_pairings;
@@ -256,6 +278,23 @@ JcbbResult jcbb(const CcmlFilter& filter, RobotId observer, std::span<const Rang
     r.ambiguous = r.rival_pairings > 0 && r.rival_pairings + cfg.relocation_margin > r.pairings;
   }
   return r;
+}
+
+}  // namespace
+
+JcbbResult jcbb(const CcmlFilter& filter, RobotId observer, std::span<const RangeBearing> z, std::span<const Mat2> R,
+                std::span<const FeatureId> candidates, const JcbbConfig& cfg) {
+  Search s(filter, observer, z, R, candidates, Measurement::Target::kFeature, cfg);
+  const Mat3 pc = filter.robot_cov(observer);
+  s.relocation = std::sqrt(std::max(pc(0, 0), pc(1, 1))) > cfg.relocation_sigma;
+  return run(s);
+}
+
+JcbbResult jcbb_robots(const CcmlFilter& filter, RobotId observer, std::span<const RangeBearing> z,
+                       std::span<const Mat2> R, std::span<const RobotId> candidates, const JcbbConfig& cfg) {
+  Search s(filter, observer, z, R, candidates, Measurement::Target::kRobot, cfg);
+  s.settled = true;
+  return run(s);
 }
 
 }  // namespace cairn::ccml

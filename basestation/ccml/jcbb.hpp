@@ -33,7 +33,8 @@ struct JcbbConfig {
 };
 
 struct JcbbResult {
-  /// For each observation: the feature it pairs with, or nullopt (new feature / clutter).
+  /// For each observation: the feature (jcbb_robots: robot) it pairs with, or nullopt (new
+  /// feature / clutter / contested).
   std::vector<std::optional<FeatureId>> pairing;
   int pairings = 0;
   double joint_nis = 0.0;
@@ -45,6 +46,8 @@ struct JcbbResult {
   /// Relocation mode: pairings of the best hypothesis with a distinct pose (0: none), and
   /// whether it comes within relocation_margin of the best.
   int rival_pairings = 0;
+  /// Relocation: a distinct rival came within the margin. jcbb_robots: some observation was
+  /// contested (left unpaired).
   bool ambiguous = false;
 };
 
@@ -54,6 +57,14 @@ double chi2_quantile(double confidence, int dof);
 /// Associates the observations (range, bearing, covariance) of `observer` with `candidates`.
 JcbbResult jcbb(const CcmlFilter& filter, RobotId observer, std::span<const RangeBearing> z,
                 std::span<const Mat2> R, std::span<const FeatureId> candidates, const JcbbConfig& config = {});
+
+/// JCBB among robots, for sightings of `observer` whose marker was not read, against the
+/// localised robots `candidates` (no relocation mode). A robot sighting has no identity to
+/// fall back on, so the most pairings are not enough: every hypothesis with as many
+/// pairings is searched, and an observation they do not all pair alike is contested and
+/// left unpaired (one sighting, two robots that explain it; two sightings, one robot).
+JcbbResult jcbb_robots(const CcmlFilter& filter, RobotId observer, std::span<const RangeBearing> z,
+                       std::span<const Mat2> R, std::span<const RobotId> candidates, const JcbbConfig& config = {});
 
 /// Least-squares rigid alignment: the pose T minimising Σ |T·local_i − global_i|².
 Pose2 align_points(std::span<const Vec2> local, std::span<const Vec2> global);

@@ -143,6 +143,41 @@ TEST(Fusion, AnUnreadSightingIsPairedOnlyWithTheOneRobotThatExplainsIt) {
   EXPECT_EQ(f.counters().robot_observations_used, before.robot_observations_used + 1);
 }
 
+// Issue 14: unread sightings are paired by JCBB among the robots. Robots 2 and 3 stand
+// 0.8 m apart, well known; robot 1 is 0.4 m from where its prior puts it. Each sighting
+// alone fits either robot (one-by-one pairing left both out); jointly only the right
+// pairing fits, and fusing both moves robot 1 to where it is.
+TEST(Fusion, UnreadSightingsOfTwoRobotsSideBySideArePairedJointly) {
+  FusionConfig c;
+  c.robots[1] = {true, {0, 0, 0}, Vec3(0.5, 0.5, 0.01)};
+  c.robots[2] = {true, {5, 0, 0}, Vec3(0.01, 0.01, 0.01)};
+  c.robots[3] = {true, {5, 0.8, 0}, Vec3(0.01, 0.01, 0.01)};
+  Fusion f(c);
+  for (const std::uint16_t id : std::initializer_list<std::uint16_t>{1, 2, 3}) {
+    msg::OdometryIncrement o{};
+    o.robot_id = id;
+    o.seq = 1;
+    o.delta_cov = {1e-8, 0, 0, 0, 1e-8, 0, 0, 0, 1e-8};
+    ASSERT_EQ(f.on_odometry(o), Fusion::Result::kApplied);
+  }
+  ASSERT_TRUE(f.localized(1) && f.localized(2) && f.localized(3));
+  const Pose2 truth{0.3, 0.25, 0};
+  msg::FeatureObservations m{};
+  m.robot_id = 1;
+  m.seq = 1;
+  m.odom_seq = 1;
+  for (const Vec2& p : {Vec2(5, 0.8), Vec2(5, 0)}) {
+    const RangeBearing z = observe_point(truth, p);
+    m.features[m.n_features++] = {msg::FeatureKind::kRobot, -1, z.range, z.bearing, {1e-4, 0, 0, 1e-5}};
+  }
+  ASSERT_EQ(f.on_features(m), Fusion::Result::kApplied);
+  EXPECT_EQ(f.counters().robot_sightings_unidentified, 2u);
+  EXPECT_EQ(f.counters().robot_sightings_paired, 2u);
+  EXPECT_EQ(f.counters().robot_observations_used, 2u);
+  const Pose2 est = f.filter().robot_pose(1);
+  EXPECT_LT(std::hypot(est.x - truth.x, est.y - truth.y), 0.05) << est.x << " " << est.y;
+}
+
 TEST(Fusion, RobotWithUnknownStartIsLocalisedByRelocation) {
   const FleetScenario s = fleet_stream::make_fleet_scenario(2, 600);
   Fusion f(config_for(s, /*know_all=*/false));  // robot 2 has no prior

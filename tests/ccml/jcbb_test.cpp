@@ -162,5 +162,68 @@ TEST(Jcbb, SymmetricLayoutMakesRelocationAmbiguous) {
   EXPECT_FALSE(r5.ambiguous) << r5.rival_pairings;
 }
 
+// Issue 14: sightings of robots whose marker was not read. Robots 2 and 3 stand 0.8 m apart
+// and are well known; the observer, robot 1, is 0.4 m from where the filter has it. Each
+// sighting alone fits either robot, so one-by-one pairing with a uniqueness test pairs
+// neither; jointly only the right pairing keeps the one offset both sightings share.
+struct TwoRobotsSideBySide {
+  CcmlFilter f;
+  Pose2 truth{0.3, 0.25, 0.0};
+  Vec2 at2{5, 0}, at3{5, 0.8};
+  std::vector<RobotId> robots{2, 3};
+  TwoRobotsSideBySide() {
+    f.add_robot(1, {0, 0, 0}, Vec3(0.25, 0.25, 1e-4).asDiagonal());
+    f.add_robot(2, {at2.x(), at2.y(), 0}, Vec3(1e-4, 1e-4, 1e-4).asDiagonal());
+    f.add_robot(3, {at3.x(), at3.y(), 0}, Vec3(1e-4, 1e-4, 1e-4).asDiagonal());
+  }
+  Measurement sighting(const Vec2& p, RobotId target) const {
+    return {1, Measurement::Target::kRobot, target, observe_point(truth, p), R()};
+  }
+};
+
+TEST(JcbbRobots, TwoRobotsSideBySideArePairedJointlyWhereOneByOneCannot) {
+  const TwoRobotsSideBySide w;
+  // The premise: each sighting passes the individual gate for both robots.
+  const double gate = chi2_quantile(0.99, 2);
+  for (const Vec2& p : {w.at2, w.at3}) {
+    for (RobotId r : w.robots) EXPECT_LT(w.f.innovation(w.sighting(p, r)).nis(), gate) << r;
+  }
+  const std::vector<RangeBearing> zs{observe_point(w.truth, w.at3), observe_point(w.truth, w.at2)};
+  const std::vector<Mat2> Rs(2, R());
+  const JcbbResult r = jcbb_robots(w.f, 1, zs, Rs, w.robots);
+  EXPECT_FALSE(r.budget_exhausted);
+  EXPECT_FALSE(r.ambiguous);
+  ASSERT_EQ(r.pairings, 2);
+  EXPECT_EQ(r.pairing[0], std::optional<FeatureId>(3));
+  EXPECT_EQ(r.pairing[1], std::optional<FeatureId>(2));
+}
+
+TEST(JcbbRobots, ASightingTwoRobotsExplainOrTwoSightingsOfOneAreLeftOut) {
+  const TwoRobotsSideBySide w;
+  const std::vector<Mat2> R1(1, R()), R2(2, R());
+  // One sighting, either robot: contested.
+  const std::vector<RangeBearing> one{observe_point(w.truth, w.at2)};
+  const JcbbResult a = jcbb_robots(w.f, 1, one, R1, w.robots);
+  EXPECT_TRUE(a.ambiguous);
+  EXPECT_FALSE(a.pairing[0]);
+  // With robot 3 not a candidate, the same sighting is robot 2's.
+  const std::vector<RobotId> only2{2};
+  const JcbbResult b = jcbb_robots(w.f, 1, one, R1, only2);
+  EXPECT_FALSE(b.ambiguous);
+  EXPECT_EQ(b.pairing[0], std::optional<FeatureId>(2));
+  // Two sightings, one robot that explains them: neither.
+  const std::vector<RangeBearing> twice{one[0], one[0]};
+  const JcbbResult c = jcbb_robots(w.f, 1, twice, R2, only2);
+  EXPECT_TRUE(c.ambiguous);
+  EXPECT_FALSE(c.pairing[0]);
+  EXPECT_FALSE(c.pairing[1]);
+  // A sighting where no robot is: unpaired, and nothing contested.
+  const std::vector<RangeBearing> nowhere{observe_point(w.truth, {5, -4})};
+  const JcbbResult d = jcbb_robots(w.f, 1, nowhere, R1, w.robots);
+  EXPECT_FALSE(d.ambiguous);
+  EXPECT_FALSE(d.pairing[0]);
+  EXPECT_EQ(d.pairings, 0);
+}
+
 }  // namespace
 }  // namespace cairn::ccml
