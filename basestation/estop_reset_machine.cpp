@@ -18,9 +18,9 @@ const char* estop_reset_outcome_name(EstopResetOutcome o) {
 
 namespace {
 
-// A reason above "reset required" is one this base does not know: never taken for "clear".
+// A reason above the last one this build knows is one this base does not know: never taken for "clear".
 bool unknown_reason(StopReason r) {
-  return static_cast<std::uint8_t>(r) > static_cast<std::uint8_t>(StopReason::kResetRequired);
+  return static_cast<std::uint8_t>(r) > static_cast<std::uint8_t>(kLastStopReason);
 }
 
 }  // namespace

@@ -17,7 +17,11 @@ enum class StopReason : std::uint8_t {
   kPowerLost = 6,        // the power board (its e-stop input) does not answer
   kFeedbackStale = 7,    // no fresh wheel feedback (TPDO) from an enabled drive, or the CAN thread stalled
   kResetRequired = 8,    // latched (e-stop released, input or CAN thread back): waiting for a reset
+  kProtectiveField = 9,  // the laser sees something on the path closer than the robot can stop in (not latched)
 };
+
+/// The highest code this build knows: a peer reporting a higher one is newer than us.
+inline constexpr StopReason kLastStopReason = StopReason::kProtectiveField;
 
 constexpr const char* stop_reason_text(StopReason r) {
   switch (r) {
@@ -30,6 +34,7 @@ constexpr const char* stop_reason_text(StopReason r) {
     case StopReason::kPowerLost: return "power board silent";
     case StopReason::kFeedbackStale: return "wheel feedback stale";
     case StopReason::kResetRequired: return "e-stop latched: reset required";
+    case StopReason::kProtectiveField: return "protective field: path blocked";
   }
   return "unknown";
 }

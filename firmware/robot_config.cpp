@@ -69,6 +69,15 @@ void read_rt(const ConfigSection& r, RobotConfig* c) {
   c->bridge_period = seconds_key(r, "bridge_period_s", c->bridge_period, {0.0005, 0.1});
 }
 
+void read_field(const ConfigSection& s, ProtectiveFieldConfig* f) {
+  f->enabled = s.boolean_or("field", f->enabled);
+  f->radius_m = s.number_or("field_radius_m", f->radius_m, {0.05, 5.0});
+  f->side_margin_m = s.number_or("field_side_margin_m", f->side_margin_m, {0.0, 1.0});
+  f->front_margin_m = s.number_or("field_front_margin_m", f->front_margin_m, {0.0, 2.0});
+  f->reaction_s = s.number_or("field_reaction_s", f->reaction_s, {0.0, 2.0});
+  f->reverse_max_v = s.number_or("reverse_max_v", f->reverse_max_v, {0.0, 5.0});
+}
+
 void read_safety(const ConfigSection& s, SafetyLimits* l) {
   l->max_v = s.number_or("max_v", l->max_v, {0.0, 5.0});
   l->max_w = s.number_or("max_w", l->max_w, {0.0, 10.0});
@@ -156,12 +165,20 @@ RobotConfig read(const ConfigDocument& doc) {
   if (const auto l = root.optional_section("laser")) read_pose3(*l, "mount", &c.executive.laser_mount);
   if (const auto g = root.optional_section("geometry")) read_geometry(*g, &c.executive.geometry);
   if (const auto r = root.optional_section("rt")) read_rt(*r, &c);
-  if (const auto s = root.optional_section("safety")) read_safety(*s, &c.executive.safety);
+  if (const auto s = root.optional_section("safety")) {
+    read_safety(*s, &c.executive.safety);
+    read_field(*s, &c.executive.field);
+  }
   if (const auto m = root.optional_section("mapping")) read_mapping(*m, &c.executive);
   if (const auto m = root.optional_section("motion")) read_motion(*m, &c.motion);
   if (const auto m = root.optional_section("map")) read_map(*m, &c.global_map);
   if (const auto e = root.optional_section("explore")) read_explore(*e, &c.explore);
-  if (c.has_devices) check_localmap_budget(root, c.executive);
+  if (c.has_devices) {
+    check_localmap_budget(root, c.executive);
+    const ExecutiveConfig& e = c.executive;
+    const std::string why = e.field.check(e.safety.max_v, e.safety.max_acc, e.localmap.max_range_m);
+    if (!why.empty()) root.fail("safety", why);
+  }
   c.motion.follower.max_w = std::min(c.motion.follower.max_w, c.executive.safety.max_w);
   doc.finish();
   c.executive.robot_id = c.id;

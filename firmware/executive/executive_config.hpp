@@ -14,6 +14,7 @@
 #include "drivers/sick/lms_driver.hpp"
 #include "firmware/executive/features.hpp"
 #include "firmware/executive/odometry.hpp"
+#include "firmware/executive/protective_field.hpp"
 #include "firmware/executive/rt_setup.hpp"
 #include "firmware/executive/safety.hpp"
 #include "firmware/localmap/local_mapper.hpp"
@@ -57,6 +58,7 @@ struct ExecutiveConfig {
   std::size_t scan_queue = 8, odometry_queue = 256, laser_queue = 4, feature_queue = 32;
   std::size_t odometry_history = 64;  // wheel steps kept to split odometry at a scan's time (>= scan latency / period)
   SafetyLimits safety;
+  ProtectiveFieldConfig field;
 };
 
 }  // namespace cairn::firmware

@@ -13,6 +13,7 @@ RobotCore::RobotCore(const ExecutiveConfig& cfg)
       mapper_(cfg.localmap),
       odometry_(cfg.geometry, cfg.odometry),
       safety_(cfg.safety),
+      field_(cfg.field, cfg.safety.max_v, cfg.safety.max_acc),
       steps_(std::max<std::size_t>(cfg.odometry_history, 1)),
       points_(std::make_unique<Vec2[]>(lms::kMaxBeams)),
       laser_msg_(std::make_unique<msg::LaserScan>()),
@@ -46,6 +47,10 @@ canopen::WheelCommand RobotCore::control(const ControlInputs& c, double dt) {
   in.reset = c.reset;
   in.v = c.v;
   in.w = c.w;
+  // The last scan's returns, moved by the odometry since (about 27 ms at most).
+  field_limit_ = field_.limit(c.v, c.w, odometry_pending().delta);
+  in.field_forward_max_v = field_limit_.forward_max_v;
+  in.field_reverse_max_v = field_limit_.reverse_max_v;
   double v = 0, w = 0;
   const StopReason reason = safety_.evaluate(in, dt, &v, &w);
   if (reason != stop_ && reason != StopReason::kNone) {
@@ -94,6 +99,8 @@ void RobotCore::on_scan(const lms::LmsScan& scan, Nanos now, RobotOutputs& out) 
   // Features first: the beams on other robots' bodies are left out of the match (they
   // move; matched, they drag this robot's local frame along with them).
   extract_features(scan, cfg_.laser_mount, cfg_.features, &features_);
+  // Every return, other robots' bodies included, guards the path.
+  field_.on_scan(scan.range_mm.data(), scan.count, scan.angle_min, scan.angle_increment, cfg_.laser_mount);
   std::size_t next_robot = 0;  // features come in beam order
   auto on_robot = [&](std::size_t beam) {
     for (; next_robot < features_.count; ++next_robot) {

@@ -68,6 +68,8 @@ class RobotCore {
   bool drives_enabled() const { return drives_enabled_; }
   /// The e-stop latch (SafetySupervisor): drives disabled and motor power off while set.
   const SafetySupervisor& safety() const { return safety_; }
+  /// The protective field's limit in the last control cycle.
+  const FieldLimit& field() const { return field_limit_; }
   Nanos last_scan() const { return last_scan_; }
   CoreCounters counters() const;
   localmap::LocalMapper& mapper() { return mapper_; }
@@ -86,6 +88,8 @@ class RobotCore {
   localmap::LocalMapper mapper_;
   DiffOdometry odometry_;
   SafetySupervisor safety_;
+  ProtectiveField field_;
+  FieldLimit field_limit_;
   // Wheel odometry since the last scan: steps older than the ring folded into `folded_`,
   // then the ring (oldest first). A scan takes the steps up to its own time.
   OdometryStep folded_;

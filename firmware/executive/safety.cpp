@@ -57,13 +57,25 @@ StopReason SafetySupervisor::evaluate(const SafetyInputs& in, double dt, double*
   else if (stale(in.last_scan, in.now, limits_.laser_timeout)) r = StopReason::kLaserLost;
   else if (stale(in.last_link, in.now, limits_.link_timeout)) r = StopReason::kLinkLost;
   else if (stale(in.last_command, in.now, limits_.command_timeout)) r = StopReason::kCommandStale;
+  double tv = std::isfinite(in.v) ? std::clamp(in.v, -limits_.max_v, limits_.max_v) : 0.0;
+  double tw = std::isfinite(in.w) ? std::clamp(in.w, -limits_.max_w, limits_.max_w) : 0.0;
+  if (r == StopReason::kNone) {
+    const double fwd = std::max(0.0, in.field_forward_max_v);  // NaN fails the comparisons below: blocked
+    if (tv > 0 && !(fwd > 0)) {
+      r = StopReason::kProtectiveField;  // blocked ahead
+    } else if (v_ > 0 && !(v_ <= fwd + limits_.max_acc * dt)) {
+      r = StopReason::kProtectiveField;  // too fast to brake in time: stop now
+    } else if (tv > fwd) {
+      tw *= fwd / tv;  // the same curvature, slower
+      tv = fwd;
+    }
+    if (tv < 0 && std::isfinite(in.field_reverse_max_v)) tv = std::max(tv, -std::max(0.0, in.field_reverse_max_v));
+  }
   if (r != StopReason::kNone && reason_ == StopReason::kNone) ++stops_;
   reason_ = r;
   if (r != StopReason::kNone) {
     v_ = w_ = 0;  // a stop is immediate, not ramped
   } else {
-    const double tv = std::isfinite(in.v) ? std::clamp(in.v, -limits_.max_v, limits_.max_v) : 0.0;
-    const double tw = std::isfinite(in.w) ? std::clamp(in.w, -limits_.max_w, limits_.max_w) : 0.0;
     v_ = ramp(v_, tv, limits_.max_acc * dt);
     w_ = ramp(w_, tw, limits_.max_alpha * dt);
   }

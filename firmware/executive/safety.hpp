@@ -10,9 +10,16 @@
 // reset (a DDS SafetyReset from the base, SIGUSR1 to cairn-robot, or the board's reset
 // input). A reset is accepted only when the e-stop reads released, the input is fresh and
 // the CAN thread cycles; a refused reset is counted and forgotten (never acted on later).
+//
+// The protective field is a speed limit, not a latch: forward speed is held to what the
+// robot can stop from before the nearest return on its path (the turn rate scaled with it,
+// keeping the path's curvature). Blocked (nothing allowed) with forward motion requested,
+// or already faster than braking at max_acc can bring down in time (something stepped in),
+// it stops at once with kProtectiveField; it clears when the path is free.
 #pragma once
 
 #include <cstdint>
+#include <limits>
 
 #include "common/clock.hpp"
 #include "common/stop_reason.hpp"
@@ -52,6 +59,10 @@ struct SafetyInputs {
   Nanos last_can_pass = -1; // the CAN thread's last pass (-1: not started yet)
   bool reset = false;       // a reset was requested since the last cycle
   double v = 0, w = 0;      // requested
+  // The protective field's limits for the requested arc (protective_field.hpp): forward
+  // speed it can stop from (0: blocked) and the reverse cap.
+  double field_forward_max_v = std::numeric_limits<double>::infinity();
+  double field_reverse_max_v = std::numeric_limits<double>::infinity();
 };
 
 class SafetySupervisor {

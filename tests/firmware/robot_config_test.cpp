@@ -71,6 +71,21 @@ TEST(RobotConfig, ErrorsNameTheKey) {
   EXPECT_NE(error_of(kDevices + "[saftey]\nmax_v = 1\n").find("did you mean 'safety'"), std::string::npos);
 }
 
+TEST(RobotConfig, TheProtectiveFieldIsOnByDefaultReadAndKeptInsideTheLaserRange) {
+  const auto def = firmware::parse_robot_config(kDevices, "robot.toml");
+  EXPECT_TRUE(def.executive.field.enabled);
+  const auto set = firmware::parse_robot_config(
+      kDevices + "[safety]\nfield_radius_m = 0.4\nfield_reaction_s = 0.2\nreverse_max_v = 0.05\n", "robot.toml");
+  EXPECT_EQ(set.executive.field.radius_m, 0.4);
+  EXPECT_EQ(set.executive.field.reaction_s, 0.2);
+  EXPECT_EQ(set.executive.field.reverse_max_v, 0.05);
+  EXPECT_FALSE(firmware::parse_robot_config(kDevices + "[safety]\nfield = false\n", "robot.toml").executive.field.enabled);
+  // 4 m/s braking at 0.5 m/s² needs 16 m: beyond the 15 m of returns the robot uses (mapping.max_range_m).
+  const std::string why = error_of(kDevices + "[safety]\nmax_v = 4\nmax_acc = 0.5\n");
+  EXPECT_NE(why.find("protective field reaches"), std::string::npos) << why;
+  EXPECT_NE(why.find("safety"), std::string::npos) << why;
+}
+
 TEST(RobotConfig, RefusesALocalMapWhoseWorkDoesNotFitTheRtPeriod) {
   // 1 cm cells passed the local map's own validation; the search alone is ~20 ms a scan.
   const std::string why = error_of(kDevices + "[mapping]\ngrid_resolution_m = 0.01\n");

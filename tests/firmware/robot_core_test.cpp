@@ -7,7 +7,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <vector>
+
+#include "common/log.hpp"
+#include "tests/support/alloc_counter.hpp"
 
 namespace cairn {
 namespace {
@@ -153,6 +157,88 @@ TEST(RobotCore, OdometryIsCutAtTheScansMidSweep) {
   EXPECT_NEAR(core.local_pose().x, v * 0.090, count_m) << "the motion after the mid-sweep is kept, not lost";
   EXPECT_NEAR(out.increments[0].delta.y, 0.0, 1e-12);
   EXPECT_NEAR(out.increments[0].delta.theta, 0.0, 1e-12);
+}
+
+struct Counter : firmware::RobotOutputs {  // keeps nothing: allocates nothing
+  std::uint64_t n = 0;
+  void odometry(const msg::OdometryIncrement&) override { ++n; }
+  void laser(const msg::LaserScan&) override { ++n; }
+  void features(const msg::FeatureObservations&) override { ++n; }
+};
+
+// Issue 15: the laser protective field. The robot is asked for 0.6 m/s straight at a wall
+// 3 m ahead and nothing else stops it: scans of the wall every 26.7 ms, wheel odometry of
+// what it drives, every other input fresh. Returns the smallest gap left between the
+// body (0.3 m) and the wall.
+struct WallRun {
+  double min_gap = 1e9, end_gap = 0;
+  StopReason reason = StopReason::kNone;
+  double end_v = 0;
+  std::uint64_t allocations = 0;
+};
+
+WallRun drive_at_wall(bool field) {
+  (void)logger();  // the process-wide logger allocates its ring once, as cairn-robot's start-up does
+  firmware::ExecutiveConfig cfg;
+  cfg.field.enabled = field;
+  firmware::RobotCore core(cfg);
+  Counter out;
+  const double wall = 3.0;
+  const canopen::DiffDriveGeometry& g = cfg.geometry;
+  double x = 0;  // true position of the robot's centre
+  WallRun run;
+  lms::LmsScan scan = scan_at(0, false);
+  Nanos next_scan = 0;
+  const Nanos scan_period = 26'667'000;
+  for (Nanos t = 0; t <= 12 * kNanosPerSecond; t += 10 * kMs) {
+    if (t == 1 * kNanosPerSecond) testing::start_counting_allocations();  // after start-up
+    const double counts = x / g.wheel_radius_m * g.counts_per_wheel_rad();
+    firmware::WheelReading w;
+    w.left = static_cast<std::int32_t>(std::lround(counts));
+    w.right = static_cast<std::int32_t>(std::lround(g.right_inverted ? -counts : counts));
+    w.enabled = true;
+    w.stamp = w.feedback_stamp = w.pass = t;
+    core.on_wheels(w);
+    if (t >= next_scan) {
+      scan.stamp = t;
+      for (std::size_t i = 0; i < scan.count; ++i) {
+        const double c = std::cos(scan.angle(i));
+        const double r = c > 0.05 ? (wall - x - cfg.laser_mount.x) / c : 0.0;
+        scan.range_mm[i] = r > 0 && r < 8.0 ? static_cast<std::uint16_t>(std::lround(r * 1000)) : 0;
+      }
+      core.on_scan(scan, t, out);
+      next_scan += scan_period;
+    }
+    firmware::ControlInputs in;
+    in.now = t;
+    in.last_link = in.last_power = in.command_stamp = t;
+    in.v = 0.6;
+    core.control(in, 0.01);
+    x += core.v() * 0.01;  // the wheels do what they are told
+    run.min_gap = std::min(run.min_gap, wall - x - 0.3);
+  }
+  run.allocations = testing::stop_counting_allocations();
+  run.end_gap = wall - x - 0.3;
+  run.reason = core.stop();
+  run.end_v = core.v();
+  return run;
+}
+
+TEST(RobotCore, TheProtectiveFieldStopsTheRobotBeforeAWallWithoutAllocating) {
+  const WallRun on = drive_at_wall(true);
+  std::printf("protective field: closest %.3f m, stopped %.3f m from the wall\n", on.min_gap, on.end_gap);
+  EXPECT_EQ(on.reason, StopReason::kProtectiveField);
+  EXPECT_EQ(on.end_v, 0.0);
+  // Stopped with the front margin (5 cm) less the 2 cm side margin's widening in front and
+  // one scan's travel at the crawl it ends with.
+  EXPECT_GE(on.min_gap, 0.05);
+  EXPECT_LE(on.end_gap, 0.10);
+  EXPECT_EQ(on.allocations, 0u);
+  // Without it, nothing else stops the robot: it drives into the wall.
+  const WallRun off = drive_at_wall(false);
+  EXPECT_LT(off.min_gap, 0.0);
+  EXPECT_EQ(off.reason, StopReason::kNone);
+  EXPECT_EQ(off.allocations, 0u);
 }
 
 }  // namespace

@@ -8,6 +8,8 @@
 
 #include "common/clock.hpp"
 
+#include <limits>
+
 namespace cairn::firmware {
 namespace {
 
@@ -21,6 +23,9 @@ struct Robot {
   bool estop = false, power_ok = true, feedback_ok = true, can_ok = true, enabled = true;
   Nanos last_power = -1, last_feedback = -1, last_can = -1;
   double v = 0, w = 0;
+  double want_v = 0.5, want_w = 0.0;
+  double field_forward = std::numeric_limits<double>::infinity();  // the protective field's limit
+  double field_reverse = std::numeric_limits<double>::infinity();
 
   StopReason cycle(bool reset = false) {
     clock.advance(kPeriod);
@@ -37,8 +42,10 @@ struct Robot {
     in.last_feedback = last_feedback;
     in.last_can_pass = last_can;
     in.reset = reset;
-    in.v = 0.5;
-    in.w = 0.0;
+    in.v = want_v;
+    in.w = want_w;
+    in.field_forward_max_v = field_forward;
+    in.field_reverse_max_v = field_reverse;
     return safety.evaluate(in, kDt, &v, &w);
   }
   // Runs until moving (or gives up): the ramp takes a few cycles.
@@ -149,6 +156,64 @@ TEST(SafetyLatch, AStalledCanThreadStopsWithinItsBoundLatchesAndNeedsAReset) {
   for (int i = 0; i < 100; ++i) ASSERT_EQ(r.cycle(), StopReason::kResetRequired);
   EXPECT_EQ(r.cycle(true), StopReason::kNone);
   EXPECT_TRUE(r.moves_within(3));
+}
+
+// The protective field (protective_field.hpp) is a speed limit: slowed with the curvature
+// kept, stopped at once when blocked or too fast to brake in time, never latched.
+TEST(ProtectiveFieldStop, SlowsKeepingTheCurveStopsWhenBlockedAndClearsWithoutAReset) {
+  Robot r;
+  r.want_v = 0.6;
+  r.want_w = 0.3;
+  for (int i = 0; i < 100; ++i) ASSERT_EQ(r.cycle(), StopReason::kNone);
+  ASSERT_NEAR(r.v, 0.6, 1e-9);
+  // The limit falls to 0.3 m/s as an obstacle nears (slower than braking at max_acc): the
+  // robot follows it, the curvature w/v stays 0.5.
+  for (int i = 0; i < 100; ++i) {
+    r.field_forward = std::max(0.3, 0.6 - 0.005 * i);
+    ASSERT_EQ(r.cycle(), StopReason::kNone) << i;
+  }
+  EXPECT_NEAR(r.v, 0.3, 1e-9);
+  EXPECT_NEAR(r.w / r.v, 0.5, 1e-9);
+  // Blocked: stopped at once, turn too, with its reason.
+  r.field_forward = 0.0;
+  EXPECT_EQ(r.cycle(), StopReason::kProtectiveField);
+  EXPECT_EQ(r.v, 0.0);
+  EXPECT_EQ(r.w, 0.0);
+  // Turning in place is still allowed; the field is no latch: clear, it moves again.
+  r.want_v = 0.0;
+  EXPECT_EQ(r.cycle(), StopReason::kNone);
+  EXPECT_GT(r.w, 0.0);
+  r.want_v = 0.6;
+  r.field_forward = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(r.moves_within(5));
+  EXPECT_FALSE(r.safety.latched());
+}
+
+TEST(ProtectiveFieldStop, SomethingSteppingInCloserThanBrakingReachesStopsAtOnce) {
+  Robot r;
+  r.want_v = 0.8;
+  for (int i = 0; i < 200; ++i) r.cycle();
+  ASSERT_NEAR(r.v, 0.8, 1e-9);
+  // Allowed 0.79: braking keeps up (one cycle at max_acc takes 0.008 m/s off).
+  r.field_forward = 0.795;
+  EXPECT_EQ(r.cycle(), StopReason::kNone);
+  EXPECT_NEAR(r.v, 0.795, 1e-9);
+  // Allowed 0.5 while doing 0.795: a ramp would reach the obstacle, so stop now.
+  r.field_forward = 0.5;
+  EXPECT_EQ(r.cycle(), StopReason::kProtectiveField);
+  EXPECT_EQ(r.v, 0.0);
+  // A NaN limit is no licence to move.
+  r.field_forward = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(r.cycle(), StopReason::kProtectiveField);
+  EXPECT_EQ(r.v, 0.0);
+}
+
+TEST(ProtectiveFieldStop, ReverseIsCapped) {
+  Robot r;
+  r.want_v = -0.5;
+  r.field_reverse = 0.1;
+  for (int i = 0; i < 100; ++i) ASSERT_EQ(r.cycle(), StopReason::kNone);
+  EXPECT_NEAR(r.v, -0.1, 1e-9);
 }
 
 }  // namespace

@@ -185,23 +185,37 @@ double closest_approach(const sim::FleetSim& f) {
 }
 
 // In one shared world robots collide and stop; they never pass through each other. In
-// separate worlds (the default) the office tours cross, so the check can fail.
+// separate worlds (the default) the office tours cross, so the check can fail. The
+// collision is the world's: shown with the robots' protective fields off. With them on
+// (the default) the robots stop before touching: no blocked step at all.
 TEST(FleetSim, InASharedWorldRobotsCollideInsteadOfPassingThrough) {
   sim::FleetSimConfig separate = office(7, 1, 30);
   sim::FleetSim apart(separate);
   apart.run();
   sim::FleetSimConfig shared = separate;
   shared.shared_world = true;
+  shared.robot.field.enabled = false;
   sim::FleetSim together(shared);
   together.run();
+  shared.robot.field.enabled = true;
+  sim::FleetSim guarded(shared);
+  guarded.run();
   const double body = 2 * 0.3;  // two bodies of SimRobotConfig's default radius
-  std::uint64_t bumps = 0;
-  for (const auto& r : together.summary(1.0).robots) bumps += r.bumps;
-  std::printf("closest approach: separate worlds %.3f m, shared world %.3f m (bodies touch at %.2f m); %llu blocked steps\n",
-              closest_approach(apart), closest_approach(together), body, static_cast<unsigned long long>(bumps));
+  auto blocked_steps = [](const sim::FleetSim& f) {
+    std::uint64_t n = 0;
+    for (const auto& r : f.summary(1.0).robots) n += r.bumps;
+    return n;
+  };
+  const std::uint64_t bumps = blocked_steps(together), guarded_bumps = blocked_steps(guarded);
+  std::printf("closest approach: separate worlds %.3f m, shared world %.3f m (bodies touch at %.2f m); %llu blocked steps; "
+              "with the protective field %.3f m, %llu blocked steps\n",
+              closest_approach(apart), closest_approach(together), body, static_cast<unsigned long long>(bumps),
+              closest_approach(guarded), static_cast<unsigned long long>(guarded_bumps));
   EXPECT_LT(closest_approach(apart), body) << "the tours no longer cross: this test shows nothing";
   EXPECT_GE(closest_approach(together), body - 0.01);
   EXPECT_GT(bumps, 0u);
+  EXPECT_GT(closest_approach(guarded), body + 0.02);
+  EXPECT_EQ(guarded_bumps, 0u);
 }
 
 }  // namespace
