@@ -139,7 +139,9 @@ int run(const std::string& config_path, int id_override, const std::string& name
       });
       if (heard) exec->note_link(now);
       if (explorer && bridge.local_to_global()) {
-        const Pose2 global = compose(*bridge.local_to_global(), exec->rt_snapshot().local_pose);
+        const auto snap = exec->rt_snapshot();
+        const Pose2 global = compose(*bridge.local_to_global(), snap.local_pose);
+        explorer->on_safety(snap.stop, snap.field_nearest, global, now);  // held by the field: mark and replan
         const auto step = explorer->step(bridge.global_map(), global, now, bid.get(), route.get());
         if (step.bid) bridge.publish_bid(*bid);
         if (step.route) {
@@ -157,8 +159,9 @@ int run(const std::string& config_path, int id_override, const std::string& name
         log_progress(cfg, *exec, bridge);
         if (explorer) {
           const auto& x = explorer->counters();
-          CAIRN_LOG_INFO("robot", "robot {} explore: bids {} (no frontier {}, failed {}), plans {} (failed {}, cut {})", cfg.id,
-                         x.bids, x.bids_no_frontier, x.bids_failed, x.plans, x.plan_failures, x.paths_cut);
+          CAIRN_LOG_INFO("robot", "robot {} explore: bids {} (no frontier {}, failed {}), plans {} (failed {}, cut {}), blocks marked {}",
+                         cfg.id, x.bids, x.bids_no_frontier, x.bids_failed, x.plans, x.plan_failures, x.paths_cut,
+                         x.blocked_marks);
         }
       }
     }

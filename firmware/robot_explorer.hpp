@@ -8,11 +8,13 @@
 // pose come in with each call.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
 #include "common/clock.hpp"
 #include "common/messages.hpp"
+#include "common/stop_reason.hpp"
 #include "firmware/explore/frontier_bids.hpp"
 #include "firmware/explore/grid_planner.hpp"
 #include "firmware/global_map.hpp"
@@ -24,11 +26,16 @@ struct RobotExploreConfig {
   Nanos bid_period = 2 * kNanosPerSecond;  // bids and replans this often
   explore::FrontierBidderConfig bidder;    // max_cells is taken from [map]
   explore::GridPlannerConfig planner;      // max_cells is taken from [map]
+  /// Held by the protective field this long, the robot marks what blocks it and replans.
+  Nanos blocked_replan_after = 1 * kNanosPerSecond;
+  Nanos blocked_memory = 20 * kNanosPerSecond;  // a mark is forgotten after this
+  double blocked_radius_m = 0.15;               // a mark is an obstacle disc this wide (before inflation)
 };
 
 struct RobotExploreCounters {
   std::uint64_t bids = 0, bids_no_frontier = 0, bids_failed = 0;  // failed: outside the map, in an obstacle
   std::uint64_t plans = 0, plan_failures = 0, paths_cut = 0;       // cut: longer than a TaskAssignment holds
+  std::uint64_t blocked_marks = 0;  // returns that held the robot, marked into the plan's map
 };
 
 class RobotExplorer {
@@ -39,6 +46,14 @@ class RobotExplorer {
   /// A task from the base. EXPLORE and GOTO without a path are planned at the next
   /// step(); anything else ends the current one (the Navigator applies it as it is).
   void on_task(const msg::TaskAssignment& task);
+
+  /// The robot's stop reason this cycle and the return limiting its protective field
+  /// (robot frame). Held by the field for blocked_replan_after, the return is marked an
+  /// obstacle in the plan's map (global frame, for blocked_memory; at most kMarks, the
+  /// oldest replaced) and the task is replanned at the next step; again every
+  /// blocked_replan_after while it holds (the next return then limits).
+  void on_safety(StopReason stop, const Vec2& field_nearest, const Pose2& robot_global, Nanos now);
+  static constexpr std::size_t kMarks = 8;
 
   struct Step {
     bool bid = false;    // `bid` holds a Bid to publish (possibly empty: "nothing left for me")
@@ -52,7 +67,12 @@ class RobotExplorer {
   const explore::BidStats& bid_stats() const { return bidder_.stats(); }
 
  private:
-  bool plan(const Pose2& robot_global, msg::TaskAssignment* route);
+  bool plan(const Pose2& robot_global, Nanos now, msg::TaskAssignment* route);
+  void stamp_marks(Nanos now);
+  struct Mark {
+    Vec2 at{0, 0};
+    Nanos until = -1;  // forgotten after (-1: empty)
+  };
 
   RobotExploreConfig config_;
   std::uint16_t robot_id_;
@@ -64,6 +84,9 @@ class RobotExplorer {
   msg::TaskAssignment task_{};
   bool task_active_ = false, task_new_ = false;
   Nanos next_period_ = 0;
+  std::array<Mark, kMarks> marks_{};
+  std::size_t next_mark_ = 0;
+  Nanos blocked_since_ = -1, last_mark_ = -1;
   std::uint32_t bid_seq_ = 0;
   RobotExploreCounters counters_;
 };

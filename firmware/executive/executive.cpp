@@ -354,6 +354,8 @@ void Executive::control_cycle(Nanos now, double dt) {
   snap_.stop = core_.stop();
   snap_.v = core_.v();
   snap_.w = core_.w();
+  snap_.field_nearest = core_.field().nearest;
+  snap_.field_limited = core_.field().limited;
   snap_.estop = estop;
   snap_.latched = safety.latched();
   snap_.latch_cause = safety.latch_cause();

@@ -45,6 +45,8 @@ struct RtSnapshot {
   Pose2 local_pose;
   StopReason stop = StopReason::kDrivesNotReady;
   double v = 0, w = 0;
+  Vec2 field_nearest{0, 0};  // the return limiting the protective field (robot frame), when field_limited
+  bool field_limited = false;
   float period_mean_us = 0, period_p99_us = 0, jitter_max_us = 0;
   float scan_work_p99_us = 0, scan_work_max_us = 0;  // one scan's processing on the RT thread
   std::uint64_t cycles = 0, misses = 0, overflows = 0, scans = 0, matched = 0, stops = 0;

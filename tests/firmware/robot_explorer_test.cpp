@@ -148,6 +148,57 @@ TEST(RobotExplorer, ATaskIsPlannedAroundTheWallsAtOnceAndReplannedEachPeriod) {
   EXPECT_FALSE(ex.step(map, at, 6 * kNanosPerSecond, &bid, &route).route);
 }
 
+// The room split by a wall at x = 4 with two 1.2 m gaps, south (y 1.5..2.7) and north
+// (y 5.3..6.5).
+std::uint8_t two_gaps(double x, double y) {
+  const bool gap = (y > 1.5 && y < 2.7) || (y > 5.3 && y < 6.5);
+  if (x > 3.85 && x < 4.15 && y > 0.7 && y < 7.3 && !gap) return 100;
+  return room(x, y);
+}
+
+bool passes_north(const msg::TaskAssignment& r) {
+  for (std::size_t i = 0; i < r.n_path; ++i) {
+    if (std::abs(r.path_xy[2 * i] - 4.0) < 0.5 && r.path_xy[2 * i + 1] > 5.0) return true;
+  }
+  return false;
+}
+
+// Issue 15: the protective field holds the robot in the south gap (something the map does
+// not show stands in it). After blocked_replan_after it marks what blocks it and replans
+// at once, through the north gap; the mark is forgotten after blocked_memory.
+TEST(RobotExplorer, HeldByTheProtectiveFieldItMarksTheBlockAndReplansRoundIt) {
+  GlobalMap map(map_cfg(4));
+  fill(&map, 2, 2, two_gaps);
+  RobotExploreConfig cfg = explore_cfg();
+  RobotExplorer ex(cfg, 5, map_cfg(4).max_cells);
+  msg::Bid bid;
+  msg::TaskAssignment route;
+  const Pose2 at{3.2, 2.1, 0};
+  (void)ex.step(map, at, 0, &bid, &route);
+  ex.on_task(task(21, msg::TaskKind::kGoto, 6.0, 2.1));
+  ASSERT_TRUE(ex.step(map, at, 10 * kNanosPerMilli, &bid, &route).route);
+  EXPECT_FALSE(passes_north(route)) << "first through the south gap, the short way";
+  // Held for 0.9 s: nothing yet; a different stop reason resets the hold.
+  const Vec2 ahead(0.45, 0.0);  // the return that blocks, robot frame
+  Nanos t = 20 * kNanosPerMilli;
+  for (; t < 920 * kNanosPerMilli; t += 10 * kNanosPerMilli) ex.on_safety(StopReason::kProtectiveField, ahead, at, t);
+  EXPECT_EQ(ex.counters().blocked_marks, 0u);
+  EXPECT_FALSE(ex.step(map, at, t, &bid, &route).route);
+  ex.on_safety(StopReason::kNone, ahead, at, t);
+  const Nanos held = t + 10 * kNanosPerMilli;
+  for (t = held; t <= held + kNanosPerSecond; t += 10 * kNanosPerMilli) ex.on_safety(StopReason::kProtectiveField, ahead, at, t);
+  EXPECT_EQ(ex.counters().blocked_marks, 1u);
+  const auto s = ex.step(map, at, t, &bid, &route);
+  ASSERT_TRUE(s.route) << "replanned at once, not at the next period";
+  EXPECT_EQ(route.kind, msg::TaskKind::kGoto);
+  EXPECT_TRUE(passes_north(route)) << "round the block, through the north gap";
+  EXPECT_NEAR(route.target_x, 6.0, 0.3);
+  // The mark is forgotten: the next period's plan takes the south gap again.
+  const Nanos later = t + cfg.blocked_memory + 3 * kNanosPerSecond;
+  ASSERT_TRUE(ex.step(map, at, later, &bid, &route).route);
+  EXPECT_FALSE(passes_north(route));
+}
+
 TEST(RobotExplorer, WithoutAMapItBidsNothingAndStandsOnATask) {
   GlobalMap map(map_cfg(4));
   RobotExplorer ex(explore_cfg(), 5, map_cfg(4).max_cells);
