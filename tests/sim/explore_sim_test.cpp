@@ -1,10 +1,13 @@
-// cairn-sim's exploration mode on the office world (the seed's world A) with two robots:
-// the map's coverage grows to a stated level within a stated simulated time, the run is
-// deterministic, the robots seldom press against walls, and the base's allocator keeps
+// cairn-sim's exploration mode on the office world (the seed's world A) with two robots in
+// one world (they see each other and would collide): the map's coverage grows to a stated
+// level within a stated simulated time, the run is deterministic, the robots seldom press
+// against walls and never touch each other (their protective fields; without them they
+// collide, and these tests fail), and the base's allocator keeps
 // the two robots on different frontiers (coordination), which the uncoordinated mode
 // does not. Capped at 120 simulated s for CI (three runs, about 25 s wall under nice).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 
@@ -25,6 +28,7 @@ sim::FleetSimConfig office_explore(std::uint64_t seed) {
   c.robot.safety.max_v = 1.0;
   c.explore = true;
   c.coverage_period = 5 * kNanosPerSecond;
+  c.shared_world = true;  // the robots see each other and collide; their protective fields keep them apart
   return c;
 }
 
@@ -61,9 +65,20 @@ TEST(ExploreSim, RobotsDriveAndSeldomPressAgainstWalls) {
   ASSERT_EQ(s.robots.size(), 2u);
   for (const auto& r : s.robots) {
     EXPECT_GT(r.distance_m, 20.0) << "robot " << r.id;
-    // bumps: physics steps (5 ms) in which the body was blocked; 200 = 1 s of contact (seed 5: 0).
+    // bumps: physics steps (5 ms) in which the body was blocked, by a wall or the other
+    // robot; 200 = 1 s of contact (seed 5: 0).
     EXPECT_LE(r.bumps, 200u) << "robot " << r.id;
   }
+  // In one world they see each other: sightings are fused.
+  EXPECT_GT(s.robot_observations_used, 0u);
+  // They never touch: the bodies (0.3 m) stay more than 0.6 m apart.
+  double closest = 1e9;
+  const auto& x = first().samples;
+  for (std::size_t a = 0; a + 1 < x.size(); ++a) {
+    if (x[a + 1].t == x[a].t) closest = std::min(closest, std::hypot(x[a].truth.x - x[a + 1].truth.x, x[a].truth.y - x[a + 1].truth.y));
+  }
+  std::printf("closest approach of the two robots: %.3f m\n", closest);
+  EXPECT_GT(closest, 0.6);
 }
 
 TEST(ExploreSim, TheAllocatorCoordinatesTheRobots) {
