@@ -1,9 +1,12 @@
 #include "basestation/explore_node.hpp"
 
+#include "common/nav_state.hpp"
+
 #include <cstdio>
 
 #include "common/dds/convert.hpp"
 #include "common/log.hpp"
+#include "common/nav_state.hpp"
 
 namespace cairn::base {
 
@@ -86,18 +89,25 @@ bool ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet) {
   return completed;
 }
 
+void ExploreNode::on_nav(std::uint16_t robot, std::uint8_t nav_state, std::uint32_t task_id, Nanos now) {
+  if (nav_state != static_cast<std::uint8_t>(NavState::kStuck)) return;
+  if (allocator_.on_stuck(robot, task_id, now)) {
+    CAIRN_LOG_WARN("explore", "robot {} reports itself stuck on task {}: taken back, its target barred for it", robot, task_id);
+  }
+}
+
 std::string ExploreNode::summary() const {
   const auto& a = allocator_.counters();
   char line[320];
   std::snprintf(line, sizeof line,
                 "explore: %s; bids %llu (unlocalised %llu, rejected %llu), rounds %llu, assigned %llu, kept %llu, "
-                "idles %llu, timeouts %llu, visits %llu (refused %llu), written %llu (failed %llu)",
+                "idles %llu, timeouts %llu, stuck %llu, visits %llu (refused %llu), written %llu (failed %llu)",
                 allocator_.explored() ? "explored" : "exploring", static_cast<unsigned long long>(counters_.bids_taken),
                 static_cast<unsigned long long>(counters_.bids_unlocalised),
                 static_cast<unsigned long long>(a.bids_rejected), static_cast<unsigned long long>(a.rounds),
                 static_cast<unsigned long long>(a.explore_assigned), static_cast<unsigned long long>(a.tasks_kept),
                 static_cast<unsigned long long>(a.idles), static_cast<unsigned long long>(a.timeouts),
-                static_cast<unsigned long long>(counters_.visits_taken),
+                static_cast<unsigned long long>(a.stuck_reports), static_cast<unsigned long long>(counters_.visits_taken),
                 static_cast<unsigned long long>(counters_.visits_refused),
                 static_cast<unsigned long long>(counters_.assignments_written),
                 static_cast<unsigned long long>(counters_.write_failures));

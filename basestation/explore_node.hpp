@@ -36,6 +36,10 @@ class ExploreNode {
   /// and every change of link, runs it and writes what it assigns. Never blocks. Returns
   /// true in the poll where exploration became complete (once per completion).
   bool poll(Nanos now, const Fusion& fusion, const Fleet& fleet);
+  /// A robot's RobotStatus navigation report (common/nav_state.hpp). kStuck on its
+  /// current task: the allocator takes the task back at once (logged); anything else,
+  /// unknown values included, is ignored.
+  void on_nav(std::uint16_t robot, std::uint8_t nav_state, std::uint32_t task_id, Nanos now);
   /// One line for the console.
   std::string summary() const;
   const explore::TaskAllocator& allocator() const { return allocator_; }

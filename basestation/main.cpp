@@ -122,6 +122,7 @@ int run(const std::string& config_path, double duration_s) {
     status_reader.take(
         [&](const cairn_RobotStatus& s, const dds_sample_info_t&) {
           fleet.on_status(s.robot_id, s.name, mode_name(s.mode), s.seq, now);
+          if (explore) explore->on_nav(s.robot_id, s.nav_state, s.nav_task_id, now);  // a stuck robot: its task back at once
         },
         [&](const cairn_RobotStatus& key, dds::InstanceEvent ev) {
           if (ev == dds::InstanceEvent::kDisposed) {

@@ -11,6 +11,7 @@
 #include "common/log.hpp"
 #include "common/program.hpp"
 #include "firmware/executive/devices.hpp"
+#include "firmware/nav_monitor.hpp"
 #include "firmware/navigator.hpp"
 #include "firmware/robot_bridge.hpp"
 #include "firmware/robot_config.hpp"
@@ -114,6 +115,10 @@ int run(const std::string& config_path, int id_override, const std::string& name
     CAIRN_LOG_INFO("robot", "explore: bidding every {} s on a map of up to {} cells", nanos_to_seconds(cfg.explore.bid_period),
                    cfg.global_map.max_cells);
   }
+  // The base's current task as the robot took it, for the stuck report in RobotStatus.
+  firmware::NavMonitor nav_monitor(cfg.nav_monitor);
+  std::uint32_t base_task = 0;
+  bool base_task_moves = false;
   const Nanos end = duration_s > 0 ? start + seconds_to_nanos(duration_s) : 0;
   const Nanos tick = exec ? cfg.bridge_period : 50 * kNanosPerMilli;
   Nanos next_status = start, next_progress = start + 10 * kNanosPerSecond, next = start;
@@ -130,6 +135,8 @@ int run(const std::string& config_path, int id_override, const std::string& name
     if (exec) {
       bridge.forward(*exec);
       const bool heard = bridge.poll_inputs([&](const msg::TaskAssignment& t) {
+        base_task = t.task_id;
+        base_task_moves = msg::task_moves(t.kind);
         if (explorer) explorer->on_task(t);
         // An exploring robot plans the base's target itself (next step below).
         const bool planned_here = explorer && t.n_path == 0 && msg::task_moves(t.kind);
@@ -152,6 +159,13 @@ int run(const std::string& config_path, int id_override, const std::string& name
       double v = 0, w = 0;
       const auto rt = exec->rt_snapshot();
       nav.command(rt.local_pose, rt.v, &v, &w);
+      const NavState was = nav_monitor.state();
+      const NavState ns = nav_monitor.update(base_task, base_task_moves, rt.stop, rt.local_pose.translation(), now);
+      bridge.set_nav(ns, base_task);
+      if (ns == NavState::kStuck && was != NavState::kStuck) {
+        CAIRN_LOG_WARN("robot", "robot {} stuck on task {}: no progress for {:.1f} s (stop: {}); reported to the base", cfg.id,
+                       base_task, nanos_to_seconds(cfg.nav_monitor.stuck_after), stop_reason_text(rt.stop));
+      }
       exec->set_velocity(v, w, clock.now());  // not `now`: a bid or a plan may have taken milliseconds
       service.alive(exec->rt_snapshot().cycles, now);
       if (now >= next_progress) {

@@ -13,6 +13,7 @@
 
 #include "cairn.h"
 #include "common/dds/topics.hpp"
+#include "common/nav_state.hpp"
 #include "firmware/executive/executive.hpp"
 #include "firmware/global_map.hpp"
 #include "firmware/robot_config.hpp"
@@ -39,6 +40,11 @@ class RobotBridge {
   std::size_t forward(Executive& exec);
   /// Fills and writes RobotStatus (exec may be null: status-only robot).
   void publish_status(Executive* exec, Nanos now);
+  /// What the navigation reports in the next RobotStatus (firmware/nav_monitor.hpp).
+  void set_nav(NavState state, std::uint32_t task_id) {
+    status_.nav_state = static_cast<std::uint8_t>(state);
+    status_.nav_task_id = task_id;
+  }
   /// Takes this robot's PoseCorrection and TaskAssignment samples; returns true when any
   /// arrived (the link is alive). `on_task` is called for each task.
   template <typename OnTask>

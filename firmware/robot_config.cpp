@@ -114,6 +114,11 @@ void check_localmap_budget(const ConfigSection& root, const ExecutiveConfig& e) 
   if (!why.empty()) root.fail("mapping", "local map: " + why);
 }
 
+void read_nav_monitor(const ConfigSection& m, NavMonitorConfig* n) {
+  n->stuck_after = seconds_key(m, "stuck_after_s", n->stuck_after, {0.5, 600.0});
+  n->progress_m = m.number_or("progress_m", n->progress_m, {0.01, 10.0});
+}
+
 void read_motion(const ConfigSection& m, MotionConfig* motion) {
   motion->follower.speed = m.number_or("speed", motion->follower.speed, {0.0, 5.0});
   motion->follower.loop = m.boolean_or("loop", motion->follower.loop);
@@ -172,7 +177,10 @@ RobotConfig read(const ConfigDocument& doc) {
     read_field(*s, &c.executive.field);
   }
   if (const auto m = root.optional_section("mapping")) read_mapping(*m, &c.executive);
-  if (const auto m = root.optional_section("motion")) read_motion(*m, &c.motion);
+  if (const auto m = root.optional_section("motion")) {
+    read_motion(*m, &c.motion);
+    read_nav_monitor(*m, &c.nav_monitor);
+  }
   if (const auto m = root.optional_section("map")) read_map(*m, &c.global_map);
   if (const auto e = root.optional_section("explore")) read_explore(*e, &c.explore);
   if (c.has_devices) {

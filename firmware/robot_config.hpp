@@ -12,6 +12,7 @@
 #include "firmware/executive/executive.hpp"
 #include "firmware/executive/path_follower.hpp"
 #include "firmware/global_map.hpp"
+#include "firmware/nav_monitor.hpp"
 #include "firmware/robot_explorer.hpp"
 
 namespace cairn::firmware {
@@ -32,6 +33,7 @@ struct RobotConfig {
   bool has_devices = false;    // [devices] present: run the executive
   ExecutiveConfig executive;   // robot_id mirrors `id`
   MotionConfig motion;
+  NavMonitorConfig nav_monitor;  // [motion] stuck_after_s, progress_m
   Nanos bridge_period = 2 * kNanosPerMilli;  // how often the DDS side drains the RT queues
   GlobalMapConfig global_map;                // [map]: the base's MapTiles, kept for the bids
   RobotExploreConfig explore;                // [explore]: bids and planning on that map

@@ -146,22 +146,36 @@ void TaskAllocator::monitor(Nanos now) {
     }
     if (now - r.last_progress < config_.no_progress_timeout) continue;
     ++counters_.timeouts;
-    r.active = false;
-    switch (r.mode) {
-      case Mode::kPool:  // take it back, bar the frontier for this robot, reassign everyone
-        bars_.push_back({id, r.target, now + config_.bar_duration});
-        ++counters_.bars_set;
-        schedule_round(now, true);
-        break;
-      case Mode::kVisit:  // the visit failed: back to the pool with its latest bid
-        ++counters_.visits_failed;
-        r.mode = Mode::kPool;
-        schedule_round(now, false);
-        break;
-      case Mode::kHome:
-        start_task(r, msg::TaskKind::kIdle, Vec2::Zero(), now);
-        break;
-    }
+    take_back(id, r, now);
+  }
+}
+
+bool TaskAllocator::on_stuck(std::uint16_t id, std::uint32_t task_id, Nanos now) {
+  const auto it = robots_.find(id);
+  if (it == robots_.end()) return false;
+  Robot& r = it->second;
+  if (!r.alive || !r.active || task_id == 0 || task_id != r.task_id) return false;
+  ++counters_.stuck_reports;
+  take_back(id, r, now);
+  return true;
+}
+
+void TaskAllocator::take_back(std::uint16_t id, Robot& r, Nanos now) {
+  r.active = false;
+  switch (r.mode) {
+    case Mode::kPool:  // take it back, bar the frontier for this robot, reassign everyone
+      bars_.push_back({id, r.target, now + config_.bar_duration});
+      ++counters_.bars_set;
+      schedule_round(now, true);
+      break;
+    case Mode::kVisit:  // the visit failed: back to the pool with its latest bid
+      ++counters_.visits_failed;
+      r.mode = Mode::kPool;
+      schedule_round(now, false);
+      break;
+    case Mode::kHome:
+      start_task(r, msg::TaskKind::kIdle, Vec2::Zero(), now);
+      break;
   }
 }
 

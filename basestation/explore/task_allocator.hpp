@@ -29,6 +29,7 @@ struct AllocatorCounters {
   std::uint64_t idles = 0;             // robots told to idle by a round
   std::uint64_t arrivals = 0;          // explore targets reached
   std::uint64_t timeouts = 0;          // tasks taken back for no progress (explore and visit)
+  std::uint64_t stuck_reports = 0;     // tasks taken back at once because the robot reported itself stuck
   std::uint64_t bars_set = 0, bars_expired = 0;
   std::uint64_t link_losses = 0, tasks_released = 0;  // tasks given back by a lost link
   std::uint64_t visits_requested = 0, visits_rejected = 0, visits_arrived = 0, visits_failed = 0;
@@ -52,6 +53,12 @@ class TaskAllocator {
   /// "Robot r, visit (x, y)": r's task ends, the others are reassigned, r goes there and
   /// returns to the pool when it arrives or makes no progress. false if r's link is lost.
   bool request_visit(std::uint16_t robot, Vec2 target, Nanos now);
+  /// The robot reports itself stuck on `task_id` (RobotStatus.nav_state): the task is taken
+  /// back at once, as the no-progress monitor would after no_progress_timeout (an explore
+  /// frontier barred for this robot, a visit failed, going home given up). Returns false
+  /// (nothing done) for a task that is not the robot's current, monitored one: a report
+  /// about an older task, or repeated after the take-back.
+  bool on_stuck(std::uint16_t robot, std::uint32_t task_id, Nanos now);
 
   /// Monitoring, the pending round when due, the end of exploration; appends to *out an
   /// assignment for every robot whose task changed. Returns true on the tick on which
@@ -100,6 +107,7 @@ class TaskAllocator {
   void schedule_round(Nanos at, bool full);
   void start_task(Robot& r, msg::TaskKind kind, Vec2 target, Nanos now);
   void monitor(Nanos now);
+  void take_back(std::uint16_t id, Robot& r, Nanos now);
   void run_round(Nanos now);
   bool barred(std::uint16_t robot, double x, double y, Nanos now) const;
   bool check_explored(Nanos now);

@@ -294,6 +294,32 @@ TEST(TaskAllocator, NoProgressTakesTheTaskBackAndTheBarExpires) {
   EXPECT_EQ(a.counters().timeouts, 1u);
 }
 
+// Issue 15: a robot that reports itself stuck (RobotStatus.nav_state) has its task taken
+// back at once, long before the no-progress monitor would: A barred for it, sent to B in
+// the same tick. A report about another task (an old one, or repeated after the take-back)
+// does nothing.
+TEST(TaskAllocator, AStuckReportTakesTheTaskBackAtOnce) {
+  AllocatorConfig c = test_config();
+  c.cells_per_metre = 0;
+  c.no_progress_timeout = sec(20);
+  TaskAllocator a(c);
+  a.on_bid(bid(1, {item(10, 0, 100, 0, {9, -1, 11, 1}), item(0, 10, 60, 0, {-1, 9, 1, 11})}), 0);
+  const auto first = tick(a, sec(0.5));
+  expect_task(first, 1, TaskKind::kExplore, 10, 0);
+  const std::uint32_t on_a = for_robot(first, 1)->task_id;
+  a.on_robot_pose(1, Vec2(0, 0), sec(1));
+  EXPECT_FALSE(a.on_stuck(1, on_a + 7, sec(6))) << "not its current task";
+  EXPECT_FALSE(a.on_stuck(2, on_a, sec(6))) << "a robot the executive does not know";
+  EXPECT_TRUE(tick(a, sec(6)).empty());
+  EXPECT_TRUE(a.on_stuck(1, on_a, sec(6)));
+  expect_task(tick(a, sec(6)), 1, TaskKind::kExplore, 0, 10);  // 14 s before the monitor would
+  EXPECT_EQ(a.counters().stuck_reports, 1u);
+  EXPECT_EQ(a.counters().timeouts, 0u);
+  EXPECT_EQ(a.counters().bars_set, 1u);
+  EXPECT_FALSE(a.on_stuck(1, on_a, sec(7))) << "the same report again: already taken back";
+  EXPECT_EQ(a.counters().stuck_reports, 1u);
+}
+
 TEST(TaskAllocator, LinkLossFreesTheTask) {
   TaskAllocator a = two_robots_on_a_and_b(test_config());
   a.on_link(1, false, sec(2));

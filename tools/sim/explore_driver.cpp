@@ -94,9 +94,20 @@ bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, boo
   if (task_id_.size() < robots.size()) {
     task_id_.resize(robots.size(), 0);
     bumps_.resize(robots.size(), 0);
+    nav_.resize(robots.size(), firmware::NavMonitor(config_.nav_monitor));
   }
   for (const RobotView& r : robots) {
     if (r.localised) allocator_.on_robot_pose(r.id, r.global.translation(), now);
+  }
+  // Each robot's stuck report, as its RobotStatus would carry it: taken back at once.
+  for (std::size_t k = 0; k < robots.size(); ++k) {
+    const auto task = allocator_.task(robots[k].id);
+    const bool moving = task && task->active && msg::task_moves(task->kind);
+    const NavState was = nav_[k].state();
+    const NavState s = nav_[k].update(task ? task->task_id : 0, moving, robots[k].stop, robots[k].local, now);
+    if (s == NavState::kStuck && was != NavState::kStuck && allocator_.on_stuck(robots[k].id, task->task_id, now)) {
+      ++counters_.stuck_reports;
+    }
   }
   take_visits(now, robots);
   if (bid_now) {

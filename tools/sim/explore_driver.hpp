@@ -15,6 +15,7 @@
 #include "basestation/explore/task_allocator.hpp"
 #include "common/occupancy_grid.hpp"
 #include "firmware/executive/path_follower.hpp"
+#include "firmware/nav_monitor.hpp"
 #include "firmware/explore/frontier_bids.hpp"
 #include "firmware/explore/grid_planner.hpp"
 
@@ -49,6 +50,9 @@ struct ExploreConfig {
   /// Operator visit requests, passed through the base's checks (basestation/explore/
   /// visit_check.hpp) to the allocator when due, as cairn-base does with the DDS topic.
   std::vector<ScheduledVisit> visits;
+  /// Each robot's stuck report (firmware/nav_monitor.hpp), as cairn-robot sends it in
+  /// RobotStatus: a stuck robot's task is taken back at once (TaskAllocator::on_stuck).
+  firmware::NavMonitorConfig nav_monitor;
 };
 
 struct ExploreCounters {
@@ -58,6 +62,7 @@ struct ExploreCounters {
   /// (targets farther apart than the allocator's same_frontier_m): the coordination seen.
   std::uint64_t periods_on_distinct_frontiers = 0;
   std::uint64_t visits_taken = 0, visits_refused = 0;  // scheduled visits the base's checks passed / refused
+  std::uint64_t stuck_reports = 0;  // robots that reported themselves stuck (each report once per episode)
 };
 
 class ExploreDriver {
@@ -68,6 +73,8 @@ class ExploreDriver {
     bool localised = false;  // the fusion has a correction for it
     Pose2 global;            // local ⊕ correction
     std::uint64_t bumps = 0;
+    StopReason stop = StopReason::kNone;  // the robot's safety state (the stuck report's input)
+    Vec2 local = Vec2::Zero();            // its local position (progress, for the stuck report)
   };
   /// A new path for robot `index` (global frame; empty: stop).
   struct PathOrder {
@@ -112,6 +119,7 @@ class ExploreDriver {
   Nanos next_bid_ = 0;
   std::vector<std::uint32_t> task_id_;   // per robot index: the task its path is for
   std::vector<std::uint64_t> bumps_;     // per robot index: bumps at the last plan
+  std::vector<firmware::NavMonitor> nav_;  // per robot index: its stuck report
   std::vector<msg::TaskAssignment> assignments_;
   std::vector<Vec2> path_;
   bool explored_ = false;

@@ -113,6 +113,8 @@ void FleetSim::explore_step() {
       corrections_[k] = c.local_to_global;
     }
     v.bumps = r->bumps();
+    v.stop = r->core().stop();
+    v.local = r->core().local_pose().translation();
     views_.push_back(v);
   }
   orders_.clear();

@@ -85,6 +85,7 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                       {"idles", a.idles},
                       {"arrivals", a.arrivals},
                       {"timeouts", a.timeouts},
+                      {"stuck_reports", a.stuck_reports},
                       {"bars_set", a.bars_set},
                       {"explored_reports", a.explored_reports},
                       {"assignments_emitted", a.assignments_emitted},
@@ -203,9 +204,10 @@ int run(const sim::FleetSimConfig& cfg, const std::string& out, bool json) {
     if (s.explore) {
       std::printf("exploration %s", s.explore->explored ? "ended: explored at" : "not ended (duration cap)");
       if (s.explore->explored) std::printf(" %.1f s", s.explore->explored_at_s);
-      std::printf("; %llu tasks assigned, %llu timeouts, %llu plan failures\n",
+      std::printf("; %llu tasks assigned, %llu timeouts, %llu stuck reports, %llu plan failures\n",
                   static_cast<unsigned long long>(s.explore->allocator.explore_assigned),
                   static_cast<unsigned long long>(s.explore->allocator.timeouts),
+                  static_cast<unsigned long long>(s.explore->allocator.stuck_reports),
                   static_cast<unsigned long long>(s.explore->driver.plan_failures));
     const auto& a = s.explore->allocator;
     const auto& d = s.explore->driver;
