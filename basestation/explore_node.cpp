@@ -85,6 +85,10 @@ bool ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet) {
   }
   if (completed) {
     CAIRN_LOG_INFO("explore", "exploration complete: no frontier with a gain above {} cells is left", allocator_.config().min_gain);
+    const std::vector<explore::UnreachableArea> left = allocator_.unreachable();
+    CAIRN_LOG_INFO("explore", "unreachable frontiers: {} (clusters the robots could not send: {})", left.size(),
+                   allocator_.unreachable_dropped());
+    for (const explore::UnreachableArea& a : left) CAIRN_LOG_INFO("explore", "unreachable: {}", explore::describe(a));
   }
   return completed;
 }

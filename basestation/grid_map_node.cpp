@@ -103,7 +103,7 @@ void GridMapNode::tile_cells(int tx, int ty, std::uint8_t* cells) const {
   }
 }
 
-std::string GridMapNode::export_to(const std::string& dir, const Fusion& fusion) {
+std::string GridMapNode::export_to(const std::string& dir, const Fusion& fusion, const std::vector<mapper::MarkedBox>& boxes) {
   reframe(fusion);  // the map as the fusion sees the robots now, not at the last period
   try {
     std::filesystem::create_directories(dir);
@@ -113,7 +113,9 @@ std::string GridMapNode::export_to(const std::string& dir, const Fusion& fusion)
     for (std::uint16_t id : mapper_.robots()) trajectories.push_back({id, mapper_.trajectory(id)});
     const mapper::ClassGrid grid = mapper_.classified();
     mapper::write_map_server(grid, dir + "/map");
-    mapper::write_png(grid, trajectories, landmarks, dir + "/map.png");
+    mapper::PngOptions png;
+    png.boxes = boxes;
+    mapper::write_png(grid, trajectories, landmarks, dir + "/map.png", png);
     mapper::write_landmarks_json(landmarks, dir + "/landmarks.json");
     std::vector<mapper::TrajectorySample> poses;
     for (std::uint16_t id : mapper_.robots()) {

@@ -18,6 +18,7 @@
 #include "basestation/base_config.hpp"
 #include "basestation/fusion.hpp"
 #include "basestation/map_frames.hpp"
+#include "basestation/mapper/export.hpp"
 #include "basestation/mapper/mapper.hpp"
 #include "common/dds/topics.hpp"
 #include "common/occupancy_grid.hpp"
@@ -42,10 +43,10 @@ class GridMapNode {
   /// Takes the LaserScans that arrived, re-renders on schedule and publishes the tiles
   /// that changed on schedule. Never blocks, never throws on data.
   void poll(Nanos now, const Fusion& fusion);
-  /// Re-renders what the fusion moved, then writes map.pgm, map.yaml, map.png and
-  /// landmarks.json into `dir` (created if missing).
-  /// Returns "" on success, else what failed (counted; the base goes on).
-  std::string export_to(const std::string& dir, const Fusion& fusion);
+  /// Re-renders what the fusion moved, then writes map.pgm, map.yaml, map.png (with
+  /// `boxes` outlined: the unreachable frontiers) and landmarks.json into `dir` (created if
+  /// missing). Returns "" on success, else what failed (counted; the base goes on).
+  std::string export_to(const std::string& dir, const Fusion& fusion, const std::vector<mapper::MarkedBox>& boxes = {});
 
   /// Fills `cells` (kMapTileSide²) with tile (tx, ty) of the current grid, as published:
   /// occupancy % for a cell ever observed, kMapTileUnknown otherwise (and outside the grid).

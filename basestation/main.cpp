@@ -7,6 +7,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
 
 #include "basestation/base_config.hpp"
 #include "basestation/estop_reset.hpp"
@@ -43,10 +44,29 @@ const char* mode_name(const cairn_RobotMode& field) {
 std::atomic<bool> g_export_requested{false};
 void on_export_signal(int) { g_export_requested.store(true); }
 
-void export_map(base::GridMapNode& map, const base::FusionNode& fusion, const std::string& dir, const char* why) {
-  const std::string error = map.export_to(dir, fusion.fusion());
+// With exploration on, the unreachable frontiers the robots report are outlined in
+// map.png and listed in frontiers.json (docs/explore.md, "Unreachable frontiers").
+void export_map(base::GridMapNode& map, const base::FusionNode& fusion, const base::ExploreNode* explore,
+                const std::string& dir, const char* why) {
+  std::vector<explore::UnreachableArea> unreachable;
+  std::vector<mapper::MarkedBox> boxes;
+  if (explore) {
+    unreachable = explore->allocator().unreachable();
+    for (const explore::UnreachableArea& a : unreachable)
+      boxes.push_back({a.min_x, a.min_y, a.max_x, a.max_y,
+                       a.kind == msg::UnreachableKind::kTooNarrow ? mapper::kTooNarrowRgb : mapper::kDisconnectedRgb});
+  }
+  std::string error = map.export_to(dir, fusion.fusion(), boxes);
+  if (error.empty() && explore) {
+    const std::string path = dir + "/frontiers.json";
+    std::ofstream f(path);
+    f << explore::unreachable_json(unreachable, explore->allocator().unreachable_dropped());
+    f.close();
+    if (!f) error = path + ": write failed";
+  }
   if (error.empty()) {
-    CAIRN_LOG_INFO("base", "map exported to {} ({}): map.pgm, map.yaml, map.png, landmarks.json", dir.c_str(), why);
+    CAIRN_LOG_INFO("base", "map exported to {} ({}): map.pgm, map.yaml, map.png, landmarks.json{}", dir.c_str(), why,
+                   explore ? ", frontiers.json" : "");
   } else {
     CAIRN_LOG_ERROR("base", "map export to {} failed ({}): {}", dir.c_str(), why, error.c_str());
   }
@@ -116,7 +136,7 @@ int run(const std::string& config_path, double duration_s) {
     if (fusion) fusion->poll(now);
     if (map) map->poll(now, fusion->fusion());
     if (g_export_requested.exchange(false)) {
-      if (map) export_map(*map, *fusion, cfg.map_export_dir, "SIGUSR1");
+      if (map) export_map(*map, *fusion, explore.get(), cfg.map_export_dir, "SIGUSR1");
       else CAIRN_LOG_WARN("base", "map export requested (SIGUSR1) but the central map is off ([fusion] and [mapper] enabled = true)");
     }
     status_reader.take(
@@ -135,7 +155,7 @@ int run(const std::string& config_path, double duration_s) {
     if (explore && explore->poll(now, fusion->fusion(), fleet) && map) {
       // Exploration just ended: save the map without being asked, and say what it covered
       // (after the export, which re-renders it: the area is that of the map written).
-      export_map(*map, *fusion, cfg.map_export_dir, "exploration complete");
+      export_map(*map, *fusion, explore.get(), cfg.map_export_dir, "exploration complete");
       const base::GridMapNode::Area a = map->area();
       CAIRN_LOG_INFO("explore", "explored: {:.1f} m2 mapped ({:.1f} m2 clear, {:.1f} m2 obstacle)", a.clear_m2 + a.obstacle_m2,
                      a.clear_m2, a.obstacle_m2);
@@ -153,7 +173,7 @@ int run(const std::string& config_path, double duration_s) {
   }
   if (fusion) std::printf("[%8.3f] final %s\n", nanos_to_seconds(clock.now() - start), fusion->summary().c_str());
   if (map) {
-    export_map(*map, *fusion, cfg.map_export_dir, "exit");
+    export_map(*map, *fusion, explore.get(), cfg.map_export_dir, "exit");
     std::printf("[%8.3f] final %s\n", nanos_to_seconds(clock.now() - start), map->summary().c_str());
   }
   CAIRN_LOG_INFO("base", "base station stopping");

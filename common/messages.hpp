@@ -22,6 +22,7 @@ constexpr std::size_t kMaxFeatures = 32;    // per FeatureObservations
 constexpr std::size_t kMaxLandmarks = 128;  // per FeatureMap page
 constexpr std::size_t kMaxPath = 64;        // waypoints in a TaskAssignment
 constexpr std::size_t kMaxBids = 48;        // frontier items per Bid (IDL MAX_BIDS)
+constexpr std::size_t kMaxUnreachable = 16; // unreachable frontier clusters per Bid (IDL MAX_UNREACHABLE)
 
 /// Row-major 3x3 / 2x2 covariances as plain arrays (Eigen types are not trivially copyable).
 using Cov3 = std::array<double, 9>;
@@ -136,6 +137,24 @@ struct BidItem {
   friend bool operator==(const BidItem&, const BidItem&) = default;
 };
 
+/// Why a robot cannot reach a stretch of frontier (docs/explore.md, "Unreachable frontiers").
+enum class UnreachableKind : std::uint8_t {
+  kTooNarrow = 0,     // connected to the robot through known clear space, but only through gaps its disc does not fit
+  kDisconnected = 1,  // not connected through known clear space at all (seen through a window, over an obstacle)
+};
+constexpr bool valid(UnreachableKind k) { return k == UnreachableKind::kTooNarrow || k == UnreachableKind::kDisconnected; }
+
+/// A connected stretch of frontier cells the robot cannot reach with its footprint (global
+/// frame): the centroid of the cells' centres, their bounding rectangle on cell edges, how
+/// many cells, and why.
+struct UnreachableCluster {
+  double x = 0, y = 0;
+  double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
+  std::uint32_t cells = 0;
+  UnreachableKind kind = UnreachableKind::kTooNarrow;
+  friend bool operator==(const UnreachableCluster&, const UnreachableCluster&) = default;
+};
+
 /// A robot's best frontier items after a map update (robot -> base).
 struct Bid {
   std::uint16_t robot_id = 0;
@@ -143,6 +162,11 @@ struct Bid {
   std::uint32_t map_version = 0;  // the map the items were computed on
   std::uint16_t n_items = 0;
   std::array<BidItem, kMaxBids> items{};
+  // The frontier it cannot reach, the largest clusters first; clusters beyond
+  // kMaxUnreachable are counted in unreachable_dropped, not sent.
+  std::uint16_t n_unreachable = 0;
+  std::uint32_t unreachable_dropped = 0;
+  std::array<UnreachableCluster, kMaxUnreachable> unreachable{};
   friend bool operator==(const Bid&, const Bid&) = default;
 };
 

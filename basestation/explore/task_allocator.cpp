@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 namespace cairn::explore {
@@ -18,10 +19,114 @@ bool well_formed(const msg::Bid& b) {
     if (!finite(it.igr_min_x) || !finite(it.igr_min_y) || !finite(it.igr_max_x) || !finite(it.igr_max_y)) return false;
     if (it.gain < 0 || it.cost < 0 || it.igr_min_x > it.igr_max_x || it.igr_min_y > it.igr_max_y) return false;
   }
+  if (b.n_unreachable > msg::kMaxUnreachable) return false;
+  for (std::size_t k = 0; k < b.n_unreachable; ++k) {
+    const msg::UnreachableCluster& u = b.unreachable[k];
+    if (!finite(u.x) || !finite(u.y) || !finite(u.min_x) || !finite(u.min_y) || !finite(u.max_x) || !finite(u.max_y))
+      return false;
+    if (u.cells == 0 || !msg::valid(u.kind) || u.min_x > u.max_x || u.min_y > u.max_y) return false;
+    // The centroid of cell centres lies inside the rectangle of their edges.
+    if (u.x < u.min_x || u.x > u.max_x || u.y < u.min_y || u.y > u.max_y) return false;
+  }
   return true;
 }
 
+bool touch(const UnreachableArea& a, const UnreachableArea& b) {
+  return a.min_x <= b.max_x && b.min_x <= a.max_x && a.min_y <= b.max_y && b.min_y <= a.max_y;
+}
+
+// b into a: rectangles united, centroids weighted by cells (the weight of a merged area is
+// the sum of its members', kept in *wa), robots united.
+void merge_into(UnreachableArea* a, double* wa, const UnreachableArea& b, double wb) {
+  a->x = (a->x * *wa + b.x * wb) / (*wa + wb);
+  a->y = (a->y * *wa + b.y * wb) / (*wa + wb);
+  *wa += wb;
+  a->min_x = std::min(a->min_x, b.min_x), a->min_y = std::min(a->min_y, b.min_y);
+  a->max_x = std::max(a->max_x, b.max_x), a->max_y = std::max(a->max_y, b.max_y);
+  a->cells = std::max(a->cells, b.cells);
+  if (b.kind == msg::UnreachableKind::kTooNarrow) a->kind = msg::UnreachableKind::kTooNarrow;
+  for (const std::uint16_t r : b.robots)
+    if (std::find(a->robots.begin(), a->robots.end(), r) == a->robots.end()) a->robots.push_back(r);
+  std::sort(a->robots.begin(), a->robots.end());
+}
+
 }  // namespace
+
+const char* to_string(msg::UnreachableKind k) {
+  switch (k) {
+    case msg::UnreachableKind::kTooNarrow: return "too narrow";
+    case msg::UnreachableKind::kDisconnected: return "disconnected";
+  }
+  return "?";
+}
+
+std::string describe(const UnreachableArea& a) {
+  std::string robots;
+  for (const std::uint16_t r : a.robots) robots += (robots.empty() ? "" : " ") + std::to_string(r);
+  char line[256];
+  std::snprintf(line, sizeof line, "%s at (%.2f, %.2f) m, box [%.2f, %.2f] x [%.2f, %.2f] m, %u cell%s, robot%s %s",
+                to_string(a.kind), a.x, a.y, a.min_x, a.max_x, a.min_y, a.max_y, static_cast<unsigned>(a.cells),
+                a.cells == 1 ? "" : "s", a.robots.size() == 1 ? "" : "s", robots.c_str());
+  return line;
+}
+
+std::string unreachable_json(const std::vector<UnreachableArea>& areas, std::uint64_t dropped) {
+  std::string out = "{\"frame\": \"global\", \"count\": " + std::to_string(areas.size()) +
+                    ", \"dropped\": " + std::to_string(dropped) + ", \"unreachable\": [";
+  for (std::size_t k = 0; k < areas.size(); ++k) {
+    const UnreachableArea& a = areas[k];
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "%s\n  {\"kind\": \"%s\", \"x\": %.3f, \"y\": %.3f, \"min_x\": %.3f, \"min_y\": %.3f, "
+                  "\"max_x\": %.3f, \"max_y\": %.3f, \"cells\": %u, \"robots\": [",
+                  k == 0 ? "" : ",", to_string(a.kind), a.x, a.y, a.min_x, a.min_y, a.max_x, a.max_y,
+                  static_cast<unsigned>(a.cells));
+    out += buf;
+    for (std::size_t r = 0; r < a.robots.size(); ++r) out += (r == 0 ? "" : ", ") + std::to_string(a.robots[r]);
+    out += "]}";
+  }
+  out += areas.empty() ? "]}\n" : "\n]}\n";
+  return out;
+}
+
+std::vector<UnreachableArea> TaskAllocator::unreachable() const {
+  std::vector<UnreachableArea> areas;
+  std::vector<double> weight;
+  for (const auto& [id, r] : robots_) {
+    if (!r.bid) continue;
+    for (std::size_t k = 0; k < r.bid->n_unreachable; ++k) {
+      const msg::UnreachableCluster& u = r.bid->unreachable[k];
+      areas.push_back({u.x, u.y, u.min_x, u.min_y, u.max_x, u.max_y, u.cells, u.kind, {id}});
+      weight.push_back(static_cast<double>(u.cells));
+    }
+  }
+  // Merge until no two touch (a merged rectangle may reach a third): at most
+  // robots × kMaxUnreachable areas, so the quadratic passes are small.
+  for (bool merged = true; merged;) {
+    merged = false;
+    for (std::size_t i = 0; i < areas.size() && !merged; ++i)
+      for (std::size_t j = i + 1; j < areas.size() && !merged; ++j) {
+        if (!touch(areas[i], areas[j])) continue;
+        merge_into(&areas[i], &weight[i], areas[j], weight[j]);
+        areas.erase(areas.begin() + static_cast<std::ptrdiff_t>(j));
+        weight.erase(weight.begin() + static_cast<std::ptrdiff_t>(j));
+        merged = true;
+      }
+  }
+  std::stable_sort(areas.begin(), areas.end(), [](const UnreachableArea& a, const UnreachableArea& b) {
+    if (a.cells != b.cells) return a.cells > b.cells;
+    if (a.x != b.x) return a.x < b.x;
+    return a.y < b.y;
+  });
+  return areas;
+}
+
+std::uint64_t TaskAllocator::unreachable_dropped() const {
+  std::uint64_t n = 0;
+  for (const auto& [id, r] : robots_)
+    if (r.bid) n += r.bid->unreachable_dropped;
+  return n;
+}
 
 TaskAllocator::TaskAllocator(AllocatorConfig config) : config_(std::move(config)) { validate(config_); }
 

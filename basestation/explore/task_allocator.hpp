@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <map>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "basestation/explore/allocator_config.hpp"
@@ -37,6 +38,25 @@ struct AllocatorCounters {
   std::uint64_t homes_sent = 0;
   std::uint64_t assignments_emitted = 0;
 };
+
+/// A stretch of frontier no robot can reach, as the executive reports it at the end of
+/// exploration: the robots' latest unreachable clusters (msg::UnreachableCluster), merged
+/// when their rectangles overlap or touch (docs/explore.md, "Unreachable frontiers").
+struct UnreachableArea {
+  double x = 0, y = 0;  // the merged clusters' centroids, weighted by their cells (global, m)
+  double min_x = 0, min_y = 0, max_x = 0, max_y = 0;  // the union of their rectangles
+  std::uint32_t cells = 0;  // the largest merged cluster's count (two robots report the same cells)
+  msg::UnreachableKind kind = msg::UnreachableKind::kDisconnected;  // too narrow if any robot found it so
+  std::vector<std::uint16_t> robots;  // who reported it, ascending
+};
+
+/// "too narrow at (4.20, 1.58) m, box [4.05, 4.35] x [1.35, 1.80] m, 9 cells, robots 1 2".
+std::string describe(const UnreachableArea& a);
+/// The export's frontiers.json: {"frame": "global", "count": N, "dropped": D, "unreachable":
+/// [{"kind": "too narrow" | "disconnected", "x", "y", "min_x", "min_y", "max_x", "max_y" (m),
+/// "cells", "robots": [...]}]}, largest first.
+std::string unreachable_json(const std::vector<UnreachableArea>& areas, std::uint64_t dropped);
+const char* to_string(msg::UnreachableKind k);
 
 class TaskAllocator {
  public:
@@ -66,6 +86,11 @@ class TaskAllocator {
   bool tick(Nanos now, std::vector<msg::TaskAssignment>* out);
 
   bool explored() const { return explored_; }
+  /// The unreachable frontier in the robots' latest bids, merged across robots (largest
+  /// first). What the end-of-exploration report lists.
+  std::vector<UnreachableArea> unreachable() const;
+  /// Clusters the robots' latest bids counted but could not carry (beyond msg::kMaxUnreachable).
+  std::uint64_t unreachable_dropped() const;
   const AllocatorCounters& counters() const { return counters_; }
   const AllocatorConfig& config() const { return config_; }
 

@@ -359,6 +359,15 @@ void write_png(const ClassGrid& map, const std::vector<Trajectory>& trajectories
       prev = p;
     }
   }
+  for (const MarkedBox& b : options.boxes) {
+    const Vec2 lo = px({b.min_x, b.min_y}), hi = px({b.max_x, b.max_y});  // image y grows downwards
+    if (!std::isfinite(lo.x()) || !std::isfinite(lo.y()) || !std::isfinite(hi.x()) || !std::isfinite(hi.y())) continue;
+    const double x0 = lo.x() - 1, x1 = hi.x(), y0 = hi.y() - 1, y1 = lo.y();  // one pixel outside the cells
+    cv.line(x0, y0, x1, y0, b.rgb);
+    cv.line(x1, y0, x1, y1, b.rgb);
+    cv.line(x1, y1, x0, y1, b.rgb);
+    cv.line(x0, y1, x0, y0, b.rgb);
+  }
   png_image image{};
   image.version = PNG_IMAGE_VERSION;
   image.width = static_cast<png_uint_32>(cv.w);

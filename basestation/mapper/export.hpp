@@ -10,6 +10,7 @@
 // Every writer throws std::runtime_error naming the file on an I/O error.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -33,13 +34,23 @@ struct Trajectory {
   std::vector<Vec2> points;  // global frame, in time order
 };
 
+/// A rectangle outlined in the PNG (global frame, m), e.g. an unreachable frontier.
+struct MarkedBox {
+  double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
+  std::array<std::uint8_t, 3> rgb{};
+};
+/// Unreachable frontiers' outlines: too narrow for the robot orange, disconnected cyan.
+inline constexpr std::array<std::uint8_t, 3> kTooNarrowRgb{{255, 140, 0}}, kDisconnectedRgb{{0, 170, 220}};
+
 struct PngOptions {
   int pixels_per_cell = 4;
   double nsigma = 3.0;  // landmark ellipses
+  std::vector<MarkedBox> boxes;  // outlined one pixel outside the rectangle, over everything else
 };
 
 /// The map (obstacle black, clear white, unknown grey), trajectories (one colour per
-/// robot, start marked by a square), landmarks (a cross and the nsigma ellipse).
+/// robot, start marked by a square), landmarks (a cross and the nsigma ellipse), and
+/// options.boxes outlined.
 void write_png(const ClassGrid& map, const std::vector<Trajectory>& trajectories, const std::vector<msg::Landmark>& landmarks,
                const std::string& path, const PngOptions& options = {});
 

@@ -9,7 +9,8 @@ namespace cairn::dds {
 
 static_assert(cairn_TILE_CELLS == kMapTileSide, "MapTile size: IDL vs common/occupancy_grid.hpp");
 static_assert(cairn_MAX_BEAMS == msg::kMaxBeams && cairn_MAX_FEATURES == msg::kMaxFeatures &&
-                  cairn_MAX_LANDMARKS == msg::kMaxLandmarks && cairn_MAX_PATH == msg::kMaxPath && cairn_MAX_BIDS == msg::kMaxBids,
+                  cairn_MAX_LANDMARKS == msg::kMaxLandmarks && cairn_MAX_PATH == msg::kMaxPath && cairn_MAX_BIDS == msg::kMaxBids &&
+                  cairn_MAX_UNREACHABLE == msg::kMaxUnreachable,
               "common/messages.hpp and common/idl/cairn.idl disagree on a capacity");
 
 namespace {
@@ -248,6 +249,13 @@ void to_dds(const msg::Bid& m, cairn_Bid* out) {
     const msg::BidItem& a = m.items[i];
     out->items[i] = {a.x, a.y, a.gain, a.cost, a.igr_min_x, a.igr_min_y, a.igr_max_x, a.igr_max_y};
   }
+  const std::size_t nu = std::min<std::size_t>(m.n_unreachable, msg::kMaxUnreachable);
+  out->n_unreachable = static_cast<std::uint16_t>(nu);
+  out->unreachable_dropped = m.unreachable_dropped;
+  for (std::size_t i = 0; i < nu; ++i) {
+    const msg::UnreachableCluster& u = m.unreachable[i];
+    out->unreachable[i] = {u.x, u.y, u.min_x, u.min_y, u.max_x, u.max_y, u.cells, static_cast<std::uint8_t>(u.kind)};
+  }
 }
 
 // Values are the sender's: the count is clamped here; NaN, negative gains and inverted
@@ -261,6 +269,14 @@ bool from_dds(const cairn_Bid& m, msg::Bid* out) {
   for (std::size_t i = 0; i < out->n_items; ++i) {
     const cairn_BidItem& a = m.items[i];
     out->items[i] = {a.x, a.y, a.gain, a.cost, a.igr_min_x, a.igr_min_y, a.igr_max_x, a.igr_max_y};
+  }
+  // An unknown kind is carried as is (UnreachableKind is an 8-bit enum: every value is
+  // representable) and refused by the executive with the rest of the bid.
+  out->n_unreachable = clamp_count(m.n_unreachable, msg::kMaxUnreachable, &ok);
+  out->unreachable_dropped = m.unreachable_dropped;
+  for (std::size_t i = 0; i < out->n_unreachable; ++i) {
+    const cairn_UnreachableCluster& u = m.unreachable[i];
+    out->unreachable[i] = {u.x, u.y, u.min_x, u.min_y, u.max_x, u.max_y, u.cells, static_cast<msg::UnreachableKind>(u.kind)};
   }
   return ok;
 }

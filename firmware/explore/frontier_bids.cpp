@@ -18,6 +18,9 @@ constexpr std::uint8_t kBlocked = 1;   // not traversable: not clear, or within 
 constexpr std::uint8_t kSettled = 2;   // its path cost is final (reached)
 constexpr std::uint8_t kNearKept = 4;  // closer than frontier_spacing_m to a kept frontier cell
 constexpr std::uint8_t kFootprint = 8;  // under the robot's disc: free, whatever the map says (footprint.hpp)
+constexpr std::uint8_t kOpen = 16;        // reached from the robot over clear cells, without inflation
+constexpr std::uint8_t kUnreachable = 32;  // an unreachable frontier cell
+constexpr std::uint8_t kClustered = 64;    // an unreachable frontier cell already in a cluster
 constexpr std::uint32_t kNotInHeap = std::numeric_limits<std::uint32_t>::max();
 constexpr double kEps = 1e-9;  // in cells²: a distance exactly on a limit counts as on the limit
 
@@ -69,6 +72,8 @@ FrontierBidder::FrontierBidder(const FrontierBidderConfig& config) : config_(con
 
 BidStatus FrontierBidder::compute(const GridGeometry& g, const Cell* cells, const Pose2& robot, msg::Bid* out) {
   out->n_items = 0;
+  out->n_unreachable = 0;
+  out->unreachable_dropped = 0;
   stats_ = {};
   n_best_ = 0;
   if (cells == nullptr || g.width <= 0 || g.height <= 0 || !std::isfinite(g.resolution) || !(g.resolution > 0) ||
@@ -89,8 +94,16 @@ BidStatus FrontierBidder::compute(const GridGeometry& g, const Cell* cells, cons
     for (int i = 0; i < g.width; ++i) {
       if (!is_frontier(g, cells, i, j)) continue;
       ++stats_.frontier_cells;
-      if (!(flags_[g.index(i, j)] & kSettled)) ++stats_.unreachable_frontier_cells;
+      const std::size_t k = g.index(i, j);
+      if (!(flags_[k] & kSettled)) {
+        ++stats_.unreachable_frontier_cells;
+        flags_[k] |= kUnreachable;
+      }
     }
+  if (stats_.unreachable_frontier_cells > 0) {
+    flood_open(g, cells, start);
+    cluster_unreachable(g, out);
+  }
 
   for (std::size_t k = 0; k < n_best_; ++k) {
     const Candidate& c = best_[k];
@@ -109,6 +122,93 @@ BidStatus FrontierBidder::compute(const GridGeometry& g, const Cell* cells, cons
   }
   out->n_items = static_cast<std::uint16_t>(n_best_);
   return n_best_ > 0 ? BidStatus::kOk : BidStatus::kNoFrontier;
+}
+
+// Breadth-first from the robot's cell over clear cells (and the footprint), 4-connected,
+// ignoring the inflation: what the robot could reach if its body were a point. An
+// unreachable frontier cell this reaches is behind a gap too narrow for the robot.
+// 4-connected: two obstacle cells touching at a corner leave no gap at all.
+void FrontierBidder::flood_open(const GridGeometry& g, const Cell* cells, std::uint32_t start) {
+  const auto w = static_cast<std::uint32_t>(g.width);
+  std::size_t head = 0, tail = 0;
+  flags_[start] |= kOpen;
+  gain_queue_[tail++] = start;
+  while (head < tail) {
+    const std::uint32_t c = gain_queue_[head++];
+    const int i = static_cast<int>(c % w), j = static_cast<int>(c / w);
+    for (int d = 0; d < 4; ++d) {
+      if (!g.contains(i + kDi4[d], j + kDj4[d])) continue;
+      const std::size_t nb = g.index(i + kDi4[d], j + kDj4[d]);
+      if ((flags_[nb] & kOpen) || class_of(cells, nb) != Cell::kClear) continue;
+      flags_[nb] |= kOpen;
+      gain_queue_[tail++] = static_cast<std::uint32_t>(nb);
+    }
+  }
+  stats_.open_cells = tail;
+}
+
+// The unreachable frontier cells' 8-connected clusters, in scan order; the
+// msg::kMaxUnreachable largest are kept (ties: the one found first), the rest counted.
+// A cluster is too narrow when one of its cells was reached by the open flood.
+void FrontierBidder::cluster_unreachable(const GridGeometry& g, msg::Bid* out) {
+  const auto w = static_cast<std::uint32_t>(g.width);
+  std::size_t kept = 0;
+  const std::size_t n = g.cells();
+  for (std::size_t seed = 0; seed < n; ++seed) {
+    if ((flags_[seed] & (kUnreachable | kClustered)) != kUnreachable) continue;
+    std::size_t head = 0, tail = 0;
+    flags_[seed] |= kClustered;
+    gain_queue_[tail++] = static_cast<std::uint32_t>(seed);
+    double sum_i = 0, sum_j = 0;
+    int i0 = std::numeric_limits<int>::max(), j0 = i0, i1 = std::numeric_limits<int>::min(), j1 = i1;
+    bool open = false;
+    while (head < tail) {
+      const std::uint32_t c = gain_queue_[head++];
+      const int i = static_cast<int>(c % w), j = static_cast<int>(c / w);
+      sum_i += i;
+      sum_j += j;
+      i0 = std::min(i0, i), j0 = std::min(j0, j), i1 = std::max(i1, i), j1 = std::max(j1, j);
+      open = open || (flags_[c] & kOpen);
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di) {
+          if ((di == 0 && dj == 0) || !g.contains(i + di, j + dj)) continue;
+          const std::size_t nb = g.index(i + di, j + dj);
+          if ((flags_[nb] & (kUnreachable | kClustered)) != kUnreachable) continue;
+          flags_[nb] |= kClustered;
+          gain_queue_[tail++] = static_cast<std::uint32_t>(nb);
+        }
+    }
+    ++stats_.unreachable_clusters;
+    msg::UnreachableCluster u;
+    const double count = static_cast<double>(tail);
+    u.x = g.origin_x + (sum_i / count + 0.5) * g.resolution;
+    u.y = g.origin_y + (sum_j / count + 0.5) * g.resolution;
+    u.min_x = g.origin_x + i0 * g.resolution;
+    u.min_y = g.origin_y + j0 * g.resolution;
+    u.max_x = g.origin_x + (i1 + 1) * g.resolution;
+    u.max_y = g.origin_y + (j1 + 1) * g.resolution;
+    u.cells = static_cast<std::uint32_t>(tail);
+    u.kind = open ? msg::UnreachableKind::kTooNarrow : msg::UnreachableKind::kDisconnected;
+    // Insert, largest first; a full list drops its smallest (or this one).
+    std::size_t k = kept;
+    if (kept < msg::kMaxUnreachable) {
+      ++kept;
+    } else if (u.cells > clusters_[kept - 1].cells) {
+      k = kept - 1;
+      ++stats_.clusters_dropped;
+    } else {
+      ++stats_.clusters_dropped;
+      continue;
+    }
+    while (k > 0 && u.cells > clusters_[k - 1].cells) {
+      clusters_[k] = clusters_[k - 1];
+      --k;
+    }
+    clusters_[k] = u;
+  }
+  std::copy_n(clusters_.begin(), kept, out->unreachable.begin());
+  out->n_unreachable = static_cast<std::uint16_t>(kept);
+  out->unreachable_dropped = static_cast<std::uint32_t>(stats_.clusters_dropped);
 }
 
 // Inflation: a cell is blocked when the robot's disc at its centre would overlap an

@@ -50,6 +50,9 @@ struct BidStats {
   std::size_t reached_cells = 0;               // settled by the path-cost flood fill
   std::size_t frontier_cells = 0;              // clear cells with an unknown 4-neighbour
   std::size_t unreachable_frontier_cells = 0;  // of those, not reached (never bid)
+  std::size_t unreachable_clusters = 0;        // their 8-connected clusters (all, sent or not)
+  std::size_t clusters_dropped = 0;            // beyond msg::kMaxUnreachable: the smallest, counted, not sent
+  std::size_t open_cells = 0;                  // reached by the uninflated flood (the kind test)
   std::size_t candidates = 0;                  // reached frontier cells kept by the spacing rule
   std::size_t below_min_gain = 0;              // candidates dropped for too little gain
   std::size_t gain_cells_visited = 0;          // the information-gain floods' total work
@@ -61,8 +64,10 @@ class FrontierBidder {
   explicit FrontierBidder(const FrontierBidderConfig& config);
 
   /// Fills out->n_items and out->items (global frame; robot_id, seq and map_version are the
-  /// caller's). `cells` holds geometry.cells() classes, row-major (GridGeometry::index).
-  /// On any status but kOk, out->n_items is 0. No heap allocation.
+  /// caller's), and the unreachable frontier clusters (out->n_unreachable, unreachable,
+  /// unreachable_dropped; also on kNoFrontier). `cells` holds geometry.cells() classes,
+  /// row-major (GridGeometry::index). On any status but kOk and kNoFrontier, both counts
+  /// are 0. No heap allocation.
   BidStatus compute(const GridGeometry& geometry, const Cell* cells, const Pose2& robot_global, msg::Bid* out);
 
   const BidStats& stats() const { return stats_; }
@@ -85,6 +90,8 @@ class FrontierBidder {
   void measure_gain(const GridGeometry& g, const Cell* cells, Candidate* c);
   void mark_spacing(const GridGeometry& g, std::uint32_t cell);
   void offer(const Candidate& c);
+  void flood_open(const GridGeometry& g, const Cell* cells, std::uint32_t start);
+  void cluster_unreachable(const GridGeometry& g, msg::Bid* out);
 
   // The Dijkstra queue: a binary min-heap of cell indices keyed by cost_, with each cell's
   // heap slot in heap_pos_ for decrease-key, so it never holds more than max_cells entries.
@@ -95,14 +102,15 @@ class FrontierBidder {
 
   FrontierBidderConfig config_;
   BidStats stats_;
-  std::vector<std::uint8_t> flags_;        // per cell: kBlocked | kSettled | kNearKept | kFootprint
+  std::vector<std::uint8_t> flags_;        // per cell: kBlocked | kSettled | kNearKept | kFootprint | kOpen | kUnreachable | kClustered
   std::vector<double> cost_;               // path cost (m) from the robot's cell
   std::vector<std::uint32_t> heap_;        // Dijkstra's open set
   std::vector<std::uint32_t> heap_pos_;    // slot in heap_, kNotInHeap when not queued
   std::vector<std::uint32_t> gain_stamp_;  // gain flood: visited when == gain_epoch_
-  std::vector<std::uint32_t> gain_queue_;  // gain flood's FIFO
+  std::vector<std::uint32_t> gain_queue_;  // gain flood's FIFO; after Dijkstra, the open flood's and the clustering's
   std::size_t heap_size_ = 0;
   std::uint32_t gain_epoch_ = 0;
+  std::array<msg::UnreachableCluster, msg::kMaxUnreachable> clusters_{};  // sorted, largest first
   std::array<Candidate, msg::kMaxBids> best_{};  // sorted, best first
   std::size_t n_best_ = 0;
 };

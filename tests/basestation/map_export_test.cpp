@@ -197,7 +197,7 @@ TEST(MapExport, PngShowsMapTrajectoriesAndLandmarkEllipses) {
   std::vector<Trajectory> traj{{1, {{1.0, 2.0}, {4.0, 2.0}}}};
   std::vector<msg::Landmark> lms{{7, 2.5, 3.0, {0.04, 0.0, 0.0, 0.01}}};  // 3σ: 0.6 m along x, 0.3 m along y
   const std::string path = (dir / "map.png").string();
-  write_png(map, traj, lms, path, {4, 3.0});
+  write_png(map, traj, lms, path, {4, 3.0, {}});
 
   png_image img{};
   img.version = PNG_IMAGE_VERSION;
@@ -219,6 +219,44 @@ TEST(MapExport, PngShowsMapTrajectoriesAndLandmarkEllipses) {
   EXPECT_EQ(at(2.5 + 0.6, 3.0), (std::array<int, 3>{230, 0, 200})); // ellipse, end of the major axis
   EXPECT_EQ(at(2.5, 3.0 + 0.3 - 0.01), (std::array<int, 3>{230, 0, 200}));  // end of the minor axis
   EXPECT_EQ(at(2.5 + 0.45, 3.0 + 0.05), (std::array<int, 3>{255, 255, 255}));  // inside, off the cross
+  fs::remove_all(dir);
+}
+
+TEST(MapExport, PngOutlinesMarkedBoxesOutsideTheirCells) {
+  const fs::path dir = temp_dir("png_boxes");
+  ClassGrid map;
+  map.geometry = {0.1, 0.0, 0.0, 50, 40};
+  map.cells.assign(map.geometry.cells(), Cell::kClear);
+  PngOptions options;
+  options.boxes = {{1.0, 1.0, 1.5, 1.2, kTooNarrowRgb}, {3.0, 2.0, 3.1, 2.1, kDisconnectedRgb}};
+  const std::string path = (dir / "map.png").string();
+  write_png(map, {}, {}, path, options);
+  png_image img{};
+  img.version = PNG_IMAGE_VERSION;
+  ASSERT_TRUE(png_image_begin_read_from_file(&img, path.c_str())) << img.message;
+  img.format = PNG_FORMAT_RGB;
+  std::vector<std::uint8_t> px(PNG_IMAGE_SIZE(img));
+  ASSERT_TRUE(png_image_finish_read(&img, nullptr, px.data(), 0, nullptr)) << img.message;
+  ASSERT_EQ(img.width, 200u);
+  auto pixel = [&](int u, int v) {
+    const std::uint8_t* p = &px[(static_cast<std::size_t>(v) * 200 + static_cast<std::size_t>(u)) * 3];
+    return std::array<std::uint8_t, 3>{p[0], p[1], p[2]};
+  };
+  const std::array<std::uint8_t, 3> white{{255, 255, 255}};
+  // Box 1: cells i 10..14, j 10..11 are pixels u 40..59, v 112..119 (v = 160 - 4 (j + 1) ..);
+  // the outline is one pixel outside: u 39 and 60, v 111 and 120.
+  EXPECT_EQ(pixel(39, 115), kTooNarrowRgb);
+  EXPECT_EQ(pixel(60, 115), kTooNarrowRgb);
+  EXPECT_EQ(pixel(50, 111), kTooNarrowRgb);
+  EXPECT_EQ(pixel(50, 120), kTooNarrowRgb);
+  EXPECT_EQ(pixel(40, 112), white) << "the cells themselves stay visible";
+  EXPECT_EQ(pixel(50, 115), white);
+  // Box 2, one cell (30, 20): pixels u 120..123, v 76..79; outline u 119 / 124, v 75 / 80.
+  EXPECT_EQ(pixel(119, 78), kDisconnectedRgb);
+  EXPECT_EQ(pixel(124, 78), kDisconnectedRgb);
+  EXPECT_EQ(pixel(121, 75), kDisconnectedRgb);
+  EXPECT_EQ(pixel(121, 80), kDisconnectedRgb);
+  EXPECT_EQ(pixel(121, 78), white);
   fs::remove_all(dir);
 }
 

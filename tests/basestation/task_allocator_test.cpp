@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <initializer_list>
 #include <limits>
@@ -366,6 +368,73 @@ TEST(TaskAllocator, EndOfExplorationReportedOnceWhenNoBidHasGain) {
   EXPECT_EQ(out.size(), 2u);
 }
 
+msg::UnreachableCluster cluster(double min_x, double min_y, double max_x, double max_y, std::uint32_t cells,
+                                 msg::UnreachableKind kind) {
+  return {(min_x + max_x) / 2, (min_y + max_y) / 2, min_x, min_y, max_x, max_y, cells, kind};
+}
+
+TEST(TaskAllocator, EndOfExplorationListsUnreachableFrontiersMergedAcrossRobots) {
+  TaskAllocator a(test_config());
+  using K = msg::UnreachableKind;
+  // Robot 1 sees the door at x = 4 as too narrow and a window patch; robot 2 sees the same
+  // door from the other side of the room as disconnected (its box overlaps robot 1's), and
+  // a patch of its own far away. A later bid of robot 1 replaces its earlier clusters.
+  msg::Bid b1 = bid(1, {});
+  b1.n_unreachable = 1;
+  b1.unreachable[0] = cluster(-30, -30, -29, -29, 3, K::kDisconnected);  // replaced below
+  a.on_bid(b1, 0);
+  b1.n_unreachable = 2;
+  b1.unreachable[0] = cluster(4.0, 1.0, 4.3, 1.6, 4, K::kTooNarrow);
+  b1.unreachable[1] = cluster(10, 0, 11, 2, 9, K::kDisconnected);
+  msg::Bid b2 = bid(2, {});
+  b2.n_unreachable = 2;
+  b2.unreachable[0] = cluster(4.15, 1.45, 4.6, 2.0, 6, K::kDisconnected);
+  b2.unreachable[1] = cluster(-5, -5, -4.5, -4, 2, K::kDisconnected);
+  b2.unreachable_dropped = 3;
+  a.on_bid(b1, 0);
+  a.on_bid(b2, 0);
+  bool ended = false;
+  tick(a, sec(0.5), &ended);
+  ASSERT_TRUE(ended) << "no item has gain: only unreachable frontiers are left";
+  const std::vector<UnreachableArea> left = a.unreachable();
+  ASSERT_EQ(left.size(), 3u);
+  // Largest first: the window patch (9), the door (6, the larger report), the far patch.
+  EXPECT_EQ(left[0].cells, 9u);
+  EXPECT_EQ(left[0].robots, (std::vector<std::uint16_t>{1}));
+  const UnreachableArea& door = left[1];
+  EXPECT_EQ(door.cells, 6u);
+  EXPECT_EQ(door.kind, K::kTooNarrow) << "robot 1 found a way there too narrow for it";
+  EXPECT_EQ(door.robots, (std::vector<std::uint16_t>{1, 2}));
+  EXPECT_DOUBLE_EQ(door.min_x, 4.0);
+  EXPECT_DOUBLE_EQ(door.min_y, 1.0);
+  EXPECT_DOUBLE_EQ(door.max_x, 4.6);
+  EXPECT_DOUBLE_EQ(door.max_y, 2.0);
+  EXPECT_NEAR(door.x, (4.15 * 4 + 4.375 * 6) / 10, 1e-12);  // centroids weighted by cells
+  EXPECT_NEAR(door.y, (1.3 * 4 + 1.725 * 6) / 10, 1e-12);
+  EXPECT_EQ(left[2].robots, (std::vector<std::uint16_t>{2}));
+  EXPECT_DOUBLE_EQ(left[2].x, -4.75);
+  EXPECT_EQ(a.unreachable_dropped(), 3u);
+  EXPECT_EQ(describe(door), "too narrow at (4.29, 1.56) m, box [4.00, 4.60] x [1.00, 2.00] m, 6 cells, robots 1 2");
+  // frontiers.json: valid JSON carrying every area.
+  const nlohmann::json j = nlohmann::json::parse(unreachable_json(left, a.unreachable_dropped()));
+  EXPECT_EQ(j["count"], 3);
+  EXPECT_EQ(j["dropped"], 3);
+  ASSERT_EQ(j["unreachable"].size(), 3u);
+  EXPECT_EQ(j["unreachable"][1]["kind"], "too narrow");
+  EXPECT_EQ(j["unreachable"][1]["robots"], nlohmann::json({1, 2}));
+  EXPECT_DOUBLE_EQ(j["unreachable"][1]["max_x"].get<double>(), 4.6);
+  EXPECT_EQ(j["unreachable"][2]["kind"], "disconnected");
+  EXPECT_EQ(j["unreachable"][2]["cells"], 2);
+  EXPECT_EQ(nlohmann::json::parse(unreachable_json({}, 0))["count"], 0);
+
+  // A third robot's cluster bridging the door and the window patch merges all three.
+  msg::Bid b3 = bid(3, {});
+  b3.n_unreachable = 1;
+  b3.unreachable[0] = cluster(4.5, 1.5, 10.5, 1.7, 2, K::kDisconnected);
+  a.on_bid(b3, sec(1));
+  EXPECT_EQ(a.unreachable().size(), 2u);
+}
+
 TEST(TaskAllocator, ConfigErrorsNameTheParameter) {
   const auto message = [](AllocatorConfig c) -> std::string {
     try {
@@ -402,6 +471,40 @@ TEST(TaskAllocator, MalformedBidsAreRefusedAndCounted) {
   EXPECT_FALSE(a.on_bid(bid(0, {}), 0));
   EXPECT_EQ(a.counters().bids_rejected, 4u);
   EXPECT_TRUE(tick(a, sec(1)).empty()) << "a refused bid schedules nothing";
+}
+
+TEST(TaskAllocator, BidsWithMalformedUnreachableClustersAreRefused) {
+  TaskAllocator a(test_config());
+  const auto with_cluster = [](msg::UnreachableCluster u, std::uint16_t n = 1) {
+    msg::Bid b = bid(1, {});
+    b.n_unreachable = n;
+    b.unreachable[0] = u;
+    return b;
+  };
+  const msg::UnreachableCluster good{1.5, 1.5, 1, 1, 2, 2, 3, msg::UnreachableKind::kTooNarrow};
+  EXPECT_TRUE(a.on_bid(with_cluster(good), 0));
+  EXPECT_FALSE(a.on_bid(with_cluster(good, msg::kMaxUnreachable + 1), 0));
+  msg::UnreachableCluster bad = good;
+  bad.y = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(a.on_bid(with_cluster(bad), 0));
+  bad = good;
+  bad.max_x = std::nan("");
+  EXPECT_FALSE(a.on_bid(with_cluster(bad), 0));
+  bad = good;
+  bad.min_y = 3;  // inverted box
+  EXPECT_FALSE(a.on_bid(with_cluster(bad), 0));
+  bad = good;
+  bad.x = 5;  // centroid outside its box
+  EXPECT_FALSE(a.on_bid(with_cluster(bad), 0));
+  bad = good;
+  bad.cells = 0;
+  EXPECT_FALSE(a.on_bid(with_cluster(bad), 0));
+  bad = good;
+  bad.kind = static_cast<msg::UnreachableKind>(7);
+  EXPECT_FALSE(a.on_bid(with_cluster(bad), 0));
+  EXPECT_EQ(a.counters().bids_rejected, 7u);
+  EXPECT_EQ(a.counters().bids_received, 1u);
+  EXPECT_EQ(a.unreachable().size(), 1u) << "only the good bid's cluster is held";
 }
 
 }  // namespace

@@ -140,6 +140,10 @@ TEST(Convert, BidRoundTripsAndAnOversizedCountIsClamped) {
   b.n_items = 2;
   b.items[0] = {1.5, -2.0, 120, 3.25, 0, -4, 3, 0};
   b.items[1] = {-7.0, 8.0, 40, 11.0, -9, 6, -5, 10};
+  b.n_unreachable = 2;
+  b.unreachable_dropped = 5;
+  b.unreachable[0] = {4.125, -1.5, 3.9, -1.8, 4.35, -1.2, 12, msg::UnreachableKind::kTooNarrow};
+  b.unreachable[1] = {-20.0, 30.5, -21.0, 30.0, -19.0, 31.0, 7, msg::UnreachableKind::kDisconnected};
   auto d = std::make_unique<cairn_Bid>();
   dds::to_dds(b, d.get());
   msg::Bid back;
@@ -152,6 +156,15 @@ TEST(Convert, BidRoundTripsAndAnOversizedCountIsClamped) {
   EXPECT_EQ(back.items[1].cost, 11.0);
   EXPECT_EQ(back.items[1].igr_max_y, 10.0);
   EXPECT_EQ(back.items[0].igr_min_y, -4.0);
+  ASSERT_EQ(back.n_unreachable, 2);
+  EXPECT_EQ(back.unreachable_dropped, 5u);
+  EXPECT_EQ(back.unreachable[0], b.unreachable[0]);
+  EXPECT_EQ(back.unreachable[1], b.unreachable[1]);
+  EXPECT_EQ(back, b);  // every field, the unused slots included (zero on both sides)
+  d->n_unreachable = 60000;  // a hostile cluster count
+  EXPECT_FALSE(dds::from_dds(*d, &back));
+  EXPECT_EQ(back.n_unreachable, msg::kMaxUnreachable);
+  d->n_unreachable = 1;
   d->n_items = 60000;  // a hostile count
   EXPECT_FALSE(dds::from_dds(*d, &back));
   EXPECT_EQ(back.n_items, msg::kMaxBids);

@@ -155,6 +155,98 @@ TEST(FrontierBids, GapNarrowerThanTheRobotIsUnreachableAndCounted) {
   EXPECT_NEAR(bid.items[0].cost, 11 * kRes, kRes * std::sqrt(2.0));
 }
 
+// A closed room (i = 0..9) with a 3-cell (0.45 m) door in its wall at i = 10, rows 9..11;
+// the laser has seen one cell past the door (i = 11, rows 9..11), the rest beyond is unknown.
+Map room_behind_door() {
+  Map m(30, 21);
+  m.fill(0, 0, 9, 20, Cell::kClear);
+  m.fill(10, 0, 10, 20, Cell::kObstacle);
+  m.fill(10, 9, 11, 11, Cell::kClear);
+  return m;
+}
+
+TEST(FrontierBids, RoomBehindANarrowDoorIsOneTooNarrowClusterAtTheDoor) {
+  FrontierBidder bidder(config(0.30, 1.5));  // needs a 0.60 m gap
+  const Map m = room_behind_door();
+  msg::Bid bid;
+  EXPECT_EQ(bidder.compute(m.g, m.c.data(), m.pose_at(4, 10), &bid), BidStatus::kNoFrontier);
+  EXPECT_EQ(bid.n_items, 0);  // never bid
+  EXPECT_EQ(bidder.stats().unreachable_frontier_cells, 3u);  // (11, 9..11)
+  ASSERT_EQ(bid.n_unreachable, 1);
+  EXPECT_EQ(bid.unreachable_dropped, 0u);
+  const msg::UnreachableCluster& u = bid.unreachable[0];
+  EXPECT_EQ(u.kind, msg::UnreachableKind::kTooNarrow);
+  EXPECT_EQ(u.cells, 3u);
+  const double door_x = 10.5 * kRes, door_y = 10.5 * kRes;  // the door's centre cell
+  EXPECT_LT(std::hypot(u.x - door_x, u.y - door_y), 0.3);
+  EXPECT_NEAR(u.x, 11.5 * kRes, 1e-9);
+  EXPECT_NEAR(u.y, 10.5 * kRes, 1e-9);
+  EXPECT_NEAR(u.min_x, 11 * kRes, 1e-9);
+  EXPECT_NEAR(u.max_x, 12 * kRes, 1e-9);
+  EXPECT_NEAR(u.min_y, 9 * kRes, 1e-9);
+  EXPECT_NEAR(u.max_y, 12 * kRes, 1e-9);
+
+  // A robot small enough for the door bids it, and nothing is unreachable.
+  FrontierBidder small(config(0.05, 1.5));
+  ASSERT_EQ(small.compute(m.g, m.c.data(), m.pose_at(4, 10), &bid), BidStatus::kOk);
+  EXPECT_EQ(bid.n_unreachable, 0);
+  EXPECT_EQ(cell_of(m, bid.items[0]).first, 11);
+}
+
+TEST(FrontierBids, RoomSeenThroughAWindowIsDisconnected) {
+  // The room's wall at i = 10 is whole; beyond it the laser saw a patch (i = 11..14,
+  // rows 5..15) through a window: clear, but no known clear path leads there.
+  Map m(30, 21);
+  m.fill(0, 0, 9, 20, Cell::kClear);
+  m.fill(10, 0, 10, 20, Cell::kObstacle);
+  m.fill(11, 5, 14, 15, Cell::kClear);
+  FrontierBidder bidder(config(0.30, 1.5));
+  msg::Bid bid;
+  EXPECT_EQ(bidder.compute(m.g, m.c.data(), m.pose_at(4, 10), &bid), BidStatus::kNoFrontier);
+  EXPECT_EQ(bid.n_items, 0);
+  // The patch's frontier: column 14 (11 cells) and rows 5 and 15 (i = 11..13, 3 + 3), one ring.
+  EXPECT_EQ(bidder.stats().unreachable_frontier_cells, 17u);
+  ASSERT_EQ(bid.n_unreachable, 1);
+  const msg::UnreachableCluster& u = bid.unreachable[0];
+  EXPECT_EQ(u.kind, msg::UnreachableKind::kDisconnected);
+  EXPECT_EQ(u.cells, 17u);
+  EXPECT_NEAR(u.min_x, 11 * kRes, 1e-9);
+  EXPECT_NEAR(u.max_x, 15 * kRes, 1e-9);
+  EXPECT_NEAR(u.min_y, 5 * kRes, 1e-9);
+  EXPECT_NEAR(u.max_y, 16 * kRes, 1e-9);
+  // Even a point robot could not get there: still disconnected, not too narrow.
+  FrontierBidder point(config(0.0, 1.5));
+  EXPECT_EQ(point.compute(m.g, m.c.data(), m.pose_at(4, 10), &bid), BidStatus::kNoFrontier);
+  ASSERT_EQ(bid.n_unreachable, 1);
+  EXPECT_EQ(bid.unreachable[0].kind, msg::UnreachableKind::kDisconnected);
+}
+
+TEST(FrontierBids, MoreThanSixteenClustersKeepsTheLargestAndCountsTheRest) {
+  // A closed room, and beyond its wall 20 seen patches in unknown space, none connected:
+  // 17 of 2 × 2 cells (4 frontier cells each) and 3 single cells, placed so the singles
+  // come first in scan order.
+  Map m(60, 40);
+  m.fill(0, 0, 9, 39, Cell::kClear);
+  m.fill(10, 0, 10, 39, Cell::kObstacle);
+  for (int k = 0; k < 3; ++k) m.fill(12 + 3 * k, 1, 12 + 3 * k, 1, Cell::kClear);
+  for (int k = 0; k < 17; ++k) {
+    const int i = 12 + 4 * (k % 10), j = 10 + 4 * (k / 10);
+    m.fill(i, j, i + 1, j + 1, Cell::kClear);
+  }
+  FrontierBidderConfig cfg = config(0.30, 1.5);
+  FrontierBidder bidder(cfg);
+  msg::Bid bid;
+  EXPECT_EQ(bidder.compute(m.g, m.c.data(), m.pose_at(4, 10), &bid), BidStatus::kNoFrontier);
+  EXPECT_EQ(bidder.stats().unreachable_clusters, 20u);
+  EXPECT_EQ(bidder.stats().clusters_dropped, 4u);
+  ASSERT_EQ(bid.n_unreachable, msg::kMaxUnreachable);
+  EXPECT_EQ(bid.unreachable_dropped, 4u);  // the 3 singles and one 2 × 2: counted, not silently cut
+  for (std::size_t k = 0; k < bid.n_unreachable; ++k) {
+    EXPECT_EQ(bid.unreachable[k].cells, 4u) << k;
+    EXPECT_EQ(bid.unreachable[k].kind, msg::UnreachableKind::kDisconnected);
+  }
+}
+
 TEST(FrontierBids, RobotPressedAgainstAWallStillPlans) {
   const Map m = wall_with_gap(5);
   FrontierBidder bidder(config(0.30, 1.5));
@@ -379,12 +471,17 @@ TEST(FrontierBids, ComputeAllocatesNothing) {
   cfg.max_cells = m.g.cells();
   FrontierBidder bidder(cfg);
   msg::Bid bid;
+  const Map door = room_behind_door();  // the unreachable clusters too
   testing::start_counting_allocations();
   const BidStatus first = bidder.compute(m.g, m.c.data(), m.pose_at(100, 10), &bid);
+  const BidStatus behind_door = bidder.compute(door.g, door.c.data(), door.pose_at(4, 10), &bid);
+  const std::uint16_t clusters = bid.n_unreachable;
   const BidStatus second = bidder.compute(m.g, m.c.data(), m.pose_at(30, 60), &bid);
   const std::uint64_t allocations = testing::stop_counting_allocations();
   EXPECT_EQ(first, BidStatus::kOk);
   EXPECT_EQ(second, BidStatus::kOk);
+  EXPECT_EQ(behind_door, BidStatus::kNoFrontier);
+  EXPECT_EQ(clusters, 1);
   EXPECT_EQ(bid.n_items, msg::kMaxBids);
   EXPECT_EQ(allocations, 0u);
 }

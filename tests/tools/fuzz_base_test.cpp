@@ -6,11 +6,13 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <limits>
 
 #include "basestation/base_config.hpp"
+#include "basestation/explore/task_allocator.hpp"
 #include "basestation/explore/visit_check.hpp"
 #include "basestation/fusion_checks.hpp"
 #include "basestation/fusion_node.hpp"
@@ -105,6 +107,43 @@ TEST(FuzzBaseMutator, VisitRequestsNameOnlyFakeRobotsAndMutationsAreRefused) {
                            Mutation::kSeqExtreme, Mutation::kTimeWarp}) {
     EXPECT_GT(seen[static_cast<std::size_t>(m)], 500) << mutation_name(m);
   }
+}
+
+// Bids (with their unreachable frontier clusters): the plausible ones pass the executive's
+// check; the non-finite ones are refused; the time-warped ones are refused when they carry
+// a negative gain or an unknown cluster kind (an item the mutator left empty has gain -0,
+// which is no negative gain). Clusters are produced, and spoiled.
+TEST(FuzzBaseMutator, BidsWithClustersPassOrAreRefusedByTheExecutive) {
+  SampleMutator mut(config(9));
+  auto d = std::make_unique<cairn_Bid>();
+  explore::TaskAllocator allocator{explore::AllocatorConfig{}};
+  int with_clusters = 0, spoiled_clusters = 0, bad_kinds = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Mutation m = mut.bid(d.get());
+    msg::Bid b;
+    (void)dds::from_dds(*d, &b);
+    if (m != Mutation::kRandomBytes && b.n_unreachable > 0) ++with_clusters;
+    const bool taken = allocator.on_bid(b, 0);
+    const msg::UnreachableCluster& u = b.unreachable[0];
+    if (m == Mutation::kPlausible) {
+      EXPECT_TRUE(taken) << i;
+    }
+    if (m == Mutation::kNonFinite) {
+      EXPECT_FALSE(taken) << i;
+      spoiled_clusters += b.n_unreachable > 0 && (!std::isfinite(u.x) || !std::isfinite(u.y) ||
+                                                  !std::isfinite(u.min_x) || !std::isfinite(u.max_y));
+    }
+    if (m == Mutation::kTimeWarp && b.n_unreachable > 0 && !msg::valid(u.kind)) {
+      EXPECT_FALSE(taken) << i;
+      ++bad_kinds;
+    }
+    if (m == Mutation::kTimeWarp && b.items[0].gain < 0) {
+      EXPECT_FALSE(taken) << i;
+    }
+  }
+  EXPECT_GT(with_clusters, 5000);
+  EXPECT_GT(spoiled_clusters, 100);
+  EXPECT_GT(bad_kinds, 100);
 }
 
 TEST(FuzzBaseMutator, SweepWalksEveryIdOutsideTheFleet) {

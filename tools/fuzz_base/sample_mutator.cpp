@@ -418,10 +418,30 @@ Mutation SampleMutator::bid(cairn_Bid* s) {
     b.igr_max_y = b.y + 1;
   }
   if (s->n_items == 0) s->n_items = 1;
+  // Unreachable frontier clusters (docs/explore.md): plausible ones, one of which the
+  // mutations below may spoil.
+  s->n_unreachable = static_cast<std::uint16_t>(n(rng_) % 3);
+  for (std::uint16_t i = 0; i < s->n_unreachable; ++i) {
+    cairn_UnreachableCluster& u = s->unreachable[i];
+    u.x = f.x + off(rng_);
+    u.y = f.y + off(rng_);
+    u.min_x = u.x - 0.3;
+    u.min_y = u.y - 0.3;
+    u.max_x = u.x + 0.3;
+    u.max_y = u.y + 0.3;
+    u.cells = 1 + static_cast<std::uint32_t>(n(rng_));
+    u.kind = static_cast<std::uint8_t>(i % 2);
+  }
   std::uniform_int_distribution<int> field(0, 3);
   cairn_BidItem& b = s->items[0];
+  cairn_UnreachableCluster& u = s->unreachable[0];
   switch (m) {
     case Mutation::kNonFinite: {
+      if (s->n_unreachable > 0 && field(rng_) == 0) {  // a cluster's field instead of the item's
+        double* fields[] = {&u.x, &u.y, &u.min_x, &u.max_y};
+        *fields[field(rng_)] = weird_value();
+        break;
+      }
       double* fields[] = {&b.x, &b.y, &b.gain, &b.cost};
       *fields[field(rng_)] = weird_value();
       break;
@@ -433,12 +453,22 @@ Mutation SampleMutator::bid(cairn_Bid* s) {
     }
     case Mutation::kCountOverflow: {
       std::uniform_int_distribution<int> c(cairn_MAX_BIDS + 1, 65535);
-      s->n_items = static_cast<std::uint16_t>(c(rng_));
+      if (field(rng_) == 0) {
+        s->n_unreachable = static_cast<std::uint16_t>(c(rng_));
+      } else {
+        s->n_items = static_cast<std::uint16_t>(c(rng_));
+      }
       break;
     }
     case Mutation::kSeqExtreme: s->seq = field(rng_) % 2 ? 0 : std::numeric_limits<std::uint32_t>::max(); break;
     case Mutation::kEpochChange: s->map_version = 0; break;
-    case Mutation::kTimeWarp: b.gain = -b.gain; break;
+    case Mutation::kTimeWarp:
+      if (s->n_unreachable > 0 && field(rng_) == 0) {
+        u.kind = 200;  // no such kind
+      } else {
+        b.gain = -b.gain;
+      }
+      break;
     default: break;
   }
   return m;

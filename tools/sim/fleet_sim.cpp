@@ -353,6 +353,8 @@ FleetSummary FleetSim::summary(double wall_seconds) const {
     e.explored_at_s = nanos_to_seconds(explore_->explored_at());
     e.allocator = explore_->allocator().counters();
     e.driver = explore_->counters();
+    e.unreachable = explore_->allocator().unreachable();
+    e.unreachable_dropped = explore_->allocator().unreachable_dropped();
     s.explore = e;
   }
   s.steps = steps_;

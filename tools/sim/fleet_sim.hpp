@@ -79,6 +79,8 @@ struct ExploreSummary {
   double explored_at_s = 0;  // when (valid if explored)
   explore::AllocatorCounters allocator;
   ExploreCounters driver;
+  std::vector<explore::UnreachableArea> unreachable;  // at the end of the run, merged (TaskAllocator::unreachable)
+  std::uint64_t unreachable_dropped = 0;              // clusters the robots' latest bids could not carry
 };
 
 struct RobotSample {

@@ -73,7 +73,21 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
   if (s.explore) {
     const auto& a = s.explore->allocator;
     const auto& d = s.explore->driver;
+    nlohmann::json unreachable = nlohmann::json::array();
+    for (const explore::UnreachableArea& u : s.explore->unreachable) {
+      unreachable.push_back({{"kind", explore::to_string(u.kind)},
+                             {"x", u.x},
+                             {"y", u.y},
+                             {"min_x", u.min_x},
+                             {"min_y", u.min_y},
+                             {"max_x", u.max_x},
+                             {"max_y", u.max_y},
+                             {"cells", u.cells},
+                             {"robots", u.robots}});
+    }
     j["explore"] = {{"explored", s.explore->explored},
+                    {"unreachable", unreachable},
+                    {"unreachable_dropped", s.explore->unreachable_dropped},
                     {"explored_at_s", s.explore->explored ? nlohmann::json(s.explore->explored_at_s) : nlohmann::json()},
                     {"allocator",
                      {{"bids_received", a.bids_received},
@@ -136,10 +150,20 @@ void write_outputs(const std::string& dir, const sim::FleetSim& fleet, const sim
     lm << line;
   }
   // The central map: as ROS map_server loads it, as a picture with the base's trajectory
-  // estimates and landmarks (3-sigma ellipses), and the landmark map as JSON.
+  // estimates and landmarks (3-sigma ellipses) and, when exploring, the unreachable
+  // frontiers outlined (as cairn-base's export, with frontiers.json), and the landmark map as JSON.
   const mapper::ClassGrid grid = fleet.map().classified();
   mapper::write_map_server(grid, dir + "/map");
-  mapper::write_png(grid, fleet.estimated_trajectories(), fleet.landmarks(), dir + "/map.png");
+  mapper::PngOptions png;
+  if (s.explore) {
+    for (const explore::UnreachableArea& a : s.explore->unreachable)
+      png.boxes.push_back({a.min_x, a.min_y, a.max_x, a.max_y,
+                           a.kind == msg::UnreachableKind::kTooNarrow ? mapper::kTooNarrowRgb : mapper::kDisconnectedRgb});
+    std::ofstream fr(dir + "/frontiers.json");
+    fr << explore::unreachable_json(s.explore->unreachable, s.explore->unreachable_dropped);
+    if (!fr) throw std::runtime_error("cannot write " + dir + "/frontiers.json");
+  }
+  mapper::write_png(grid, fleet.estimated_trajectories(), fleet.landmarks(), dir + "/map.png", png);
   mapper::write_landmarks_json(fleet.landmarks(), dir + "/landmarks.json");
   if (!s.coverage.empty()) {
     std::ofstream cov(dir + "/coverage.csv");
@@ -209,6 +233,12 @@ int run(const sim::FleetSimConfig& cfg, const std::string& out, bool json) {
                   static_cast<unsigned long long>(s.explore->allocator.timeouts),
                   static_cast<unsigned long long>(s.explore->allocator.stuck_reports),
                   static_cast<unsigned long long>(s.explore->driver.plan_failures));
+      std::printf("unreachable frontiers: %zu", s.explore->unreachable.size());
+      if (s.explore->unreachable_dropped > 0)
+        std::printf(" (and %llu clusters the robots could not send)",
+                    static_cast<unsigned long long>(s.explore->unreachable_dropped));
+      std::printf("\n");
+      for (const explore::UnreachableArea& u : s.explore->unreachable) std::printf("  %s\n", explore::describe(u).c_str());
     const auto& a = s.explore->allocator;
     const auto& d = s.explore->driver;
     if (d.visits_taken + d.visits_refused > 0) {
