@@ -160,7 +160,10 @@ int run(const std::string& config_path, int id_override, const std::string& name
       const auto rt = exec->rt_snapshot();
       nav.command(rt.local_pose, rt.v, &v, &w);
       const NavState was = nav_monitor.state();
-      const NavState ns = nav_monitor.update(base_task, base_task_moves, rt.stop, rt.local_pose.translation(), now);
+      // Done with the path of the base's task (arrived; the base has not yet sent another):
+      // not stuck. A plan that failed leaves the task unfinished (the explorer stood it).
+      const bool arrived = nav.task_id() == base_task && nav.finished();
+      const NavState ns = nav_monitor.update(base_task, base_task_moves && !arrived, rt.stop, rt.local_pose.translation(), now);
       bridge.set_nav(ns, base_task);
       if (ns == NavState::kStuck && was != NavState::kStuck) {
         CAIRN_LOG_WARN("robot", "robot {} stuck on task {}: no progress for {:.1f} s (stop: {}); reported to the base", cfg.id,

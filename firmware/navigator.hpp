@@ -28,6 +28,8 @@ class Navigator {
   /// forward speed (it sets the lookahead).
   void command(const Pose2& local_pose, double speed_now, double* v, double* w);
   bool active() const { return follower_ != nullptr && !follower_->done(); }
+  /// The current task moves the robot and its path has been followed to the end.
+  bool finished() const { return follower_ != nullptr && follower_->done() && msg::task_moves(kind_); }
   std::uint32_t task_id() const { return task_id_; }
 
  private:

@@ -76,6 +76,7 @@ void read_field(const ConfigSection& s, ProtectiveFieldConfig* f) {
   f->front_margin_m = s.number_or("field_front_margin_m", f->front_margin_m, {0.0, 2.0});
   f->reaction_s = s.number_or("field_reaction_s", f->reaction_s, {0.0, 2.0});
   f->reverse_max_v = s.number_or("reverse_max_v", f->reverse_max_v, {0.0, 5.0});
+  f->restart_m = s.number_or("field_restart_m", f->restart_m, {0.0, 1.0});
 }
 
 void read_safety(const ConfigSection& s, SafetyLimits* l) {

@@ -9,7 +9,8 @@ RobotExplorer::RobotExplorer(const RobotExploreConfig& config, std::uint16_t rob
     : config_(config),
       robot_id_(robot_id),
       bidder_(explore::sized(config.bidder, max_cells)),
-      planner_(explore::sized(config.planner, max_cells)) {
+      planner_(explore::sized(config.planner, max_cells)),
+      marks_({config.blocked_replan_after, config.blocked_memory, config.blocked_radius_m}) {
   grid_.cells.reserve(max_cells);
   path_.reserve(1024);
 }
@@ -21,42 +22,16 @@ void RobotExplorer::on_task(const msg::TaskAssignment& task) {
 }
 
 void RobotExplorer::on_safety(StopReason stop, const Vec2& field_nearest, const Pose2& robot_global, Nanos now) {
-  if (stop != StopReason::kProtectiveField) {
-    blocked_since_ = -1;
-    return;
-  }
-  if (blocked_since_ < 0) blocked_since_ = now;
-  if (now - blocked_since_ < config_.blocked_replan_after) return;
-  if (last_mark_ >= 0 && now - last_mark_ < config_.blocked_replan_after) return;
-  last_mark_ = now;
-  marks_[next_mark_] = {transform_point(robot_global, field_nearest), now + config_.blocked_memory};
-  next_mark_ = (next_mark_ + 1) % kMarks;
-  ++counters_.blocked_marks;
+  if (!marks_.on_safety(stop, field_nearest, robot_global, now)) return;
+  counters_.blocked_marks = marks_.marked();
   if (task_active_) task_new_ = true;  // replan now, round it
-}
-
-void RobotExplorer::stamp_marks(Nanos now) {
-  const GridGeometry& g = grid_.geometry;
-  const double r = config_.blocked_radius_m;
-  const int reach = static_cast<int>(std::ceil(r / g.resolution));
-  for (const Mark& m : marks_) {
-    if (m.until < now) continue;
-    const int ci = static_cast<int>(std::floor((m.at.x() - g.origin_x) / g.resolution));
-    const int cj = static_cast<int>(std::floor((m.at.y() - g.origin_y) / g.resolution));
-    for (int j = cj - reach; j <= cj + reach; ++j) {
-      for (int i = ci - reach; i <= ci + reach; ++i) {
-        if (!g.contains(i, j)) continue;
-        if ((i == ci && j == cj) || (g.center(i, j) - m.at).norm() <= r) grid_.at(i, j) = Cell::kObstacle;
-      }
-    }
-  }
 }
 
 bool RobotExplorer::plan(const Pose2& robot_global, Nanos now, msg::TaskAssignment* route) {
   *route = task_;
   route->n_path = 0;
   ++counters_.plans;
-  if (have_grid_) stamp_marks(now);
+  if (have_grid_) marks_.stamp(&grid_, now);
   const Vec2 goal(task_.target_x, task_.target_y);
   const explore::PlanStatus s = have_grid_ ? planner_.plan(grid_.geometry, grid_.cells.data(), robot_global.translation(), goal, &path_)
                                            : explore::PlanStatus::kBadMap;

@@ -15,6 +15,7 @@
 #include "common/clock.hpp"
 #include "common/messages.hpp"
 #include "common/stop_reason.hpp"
+#include "firmware/explore/block_marks.hpp"
 #include "firmware/explore/frontier_bids.hpp"
 #include "firmware/explore/grid_planner.hpp"
 #include "firmware/global_map.hpp"
@@ -48,12 +49,9 @@ class RobotExplorer {
   void on_task(const msg::TaskAssignment& task);
 
   /// The robot's stop reason this cycle and the return limiting its protective field
-  /// (robot frame). Held by the field for blocked_replan_after, the return is marked an
-  /// obstacle in the plan's map (global frame, for blocked_memory; at most kMarks, the
-  /// oldest replaced) and the task is replanned at the next step; again every
-  /// blocked_replan_after while it holds (the next return then limits).
+  /// (robot frame): held by the field, the return is marked in the plan's map and the task
+  /// replanned at the next step (explore::BlockMarks).
   void on_safety(StopReason stop, const Vec2& field_nearest, const Pose2& robot_global, Nanos now);
-  static constexpr std::size_t kMarks = 8;
 
   struct Step {
     bool bid = false;    // `bid` holds a Bid to publish (possibly empty: "nothing left for me")
@@ -68,11 +66,6 @@ class RobotExplorer {
 
  private:
   bool plan(const Pose2& robot_global, Nanos now, msg::TaskAssignment* route);
-  void stamp_marks(Nanos now);
-  struct Mark {
-    Vec2 at{0, 0};
-    Nanos until = -1;  // forgotten after (-1: empty)
-  };
 
   RobotExploreConfig config_;
   std::uint16_t robot_id_;
@@ -84,9 +77,7 @@ class RobotExplorer {
   msg::TaskAssignment task_{};
   bool task_active_ = false, task_new_ = false;
   Nanos next_period_ = 0;
-  std::array<Mark, kMarks> marks_{};
-  std::size_t next_mark_ = 0;
-  Nanos blocked_since_ = -1, last_mark_ = -1;
+  explore::BlockMarks marks_;
   std::uint32_t bid_seq_ = 0;
   RobotExploreCounters counters_;
 };

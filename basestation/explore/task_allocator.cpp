@@ -11,19 +11,23 @@ namespace {
 
 bool finite(double v) { return std::isfinite(v); }
 
+// Every coordinate a bid carries lies within this of the origin (as a visit's target): a
+// finite but absurd one (1e300) would merge every area and overflow the drawing's pixels.
+constexpr double kMaxCoordinateM = 10'000;
+bool place(double v) { return std::isfinite(v) && std::abs(v) <= kMaxCoordinateM; }
+
 bool well_formed(const msg::Bid& b) {
   if (b.robot_id == 0 || b.n_items > msg::kMaxBids) return false;
   for (std::size_t k = 0; k < b.n_items; ++k) {
     const msg::BidItem& it = b.items[k];
-    if (!finite(it.x) || !finite(it.y) || !finite(it.gain) || !finite(it.cost)) return false;
-    if (!finite(it.igr_min_x) || !finite(it.igr_min_y) || !finite(it.igr_max_x) || !finite(it.igr_max_y)) return false;
+    if (!place(it.x) || !place(it.y) || !finite(it.gain) || !finite(it.cost)) return false;
+    if (!place(it.igr_min_x) || !place(it.igr_min_y) || !place(it.igr_max_x) || !place(it.igr_max_y)) return false;
     if (it.gain < 0 || it.cost < 0 || it.igr_min_x > it.igr_max_x || it.igr_min_y > it.igr_max_y) return false;
   }
   if (b.n_unreachable > msg::kMaxUnreachable) return false;
   for (std::size_t k = 0; k < b.n_unreachable; ++k) {
     const msg::UnreachableCluster& u = b.unreachable[k];
-    if (!finite(u.x) || !finite(u.y) || !finite(u.min_x) || !finite(u.min_y) || !finite(u.max_x) || !finite(u.max_y))
-      return false;
+    if (!place(u.x) || !place(u.y) || !place(u.min_x) || !place(u.min_y) || !place(u.max_x) || !place(u.max_y)) return false;
     if (u.cells == 0 || !msg::valid(u.kind) || u.min_x > u.max_x || u.min_y > u.max_y) return false;
     // The centroid of cell centres lies inside the rectangle of their edges.
     if (u.x < u.min_x || u.x > u.max_x || u.y < u.min_y || u.y > u.max_y) return false;

@@ -35,6 +35,11 @@ double ProtectiveField::speed_for(double free_m) const {
   return max_acc_ * (-t + std::sqrt(t * t + 2 * room / max_acc_));
 }
 
+double ProtectiveField::braking_speed_for(double free_m) const {
+  const double room = free_m - cfg_.front_margin_m;
+  return room > 0 ? std::sqrt(2 * max_acc_ * room) : 0.0;
+}
+
 void ProtectiveField::on_scan(const std::uint16_t* range_mm, std::size_t count, double angle_min, double increment,
                               const Pose2& mount) {
   count_ = 0;
@@ -55,11 +60,13 @@ FieldLimit ProtectiveField::limit(double v, double w, const Pose2& since_scan) c
   out.reverse_max_v = cfg_.reverse_max_v;
   if (!cfg_.enabled) {
     out.forward_max_v = std::numeric_limits<double>::infinity();
+    out.brake_max_v = std::numeric_limits<double>::infinity();
     out.reverse_max_v = std::numeric_limits<double>::infinity();
     out.free_m = std::numeric_limits<double>::infinity();
     return out;
   }
   if (!have_scan_) return out;  // nothing seen yet: no forward motion
+  if (!std::isfinite(v) || !std::isfinite(w)) return out;  // no arc to check: blocked
   // The arc driven: curvature w/v, mirrored to turn left (a straight line below 1e-3 /m).
   const double kappa = v > 0 ? w / v : 0.0;
   const bool mirror = kappa < 0;
@@ -79,6 +86,7 @@ FieldLimit ProtectiveField::limit(double v, double w, const Pose2& since_scan) c
       s = q.x() - half;
       inside = std::abs(q.x()) <= half;
       ahead = q.x() > 0;
+      if (!inside && !ahead) continue;  // behind the body: driving on never reaches it
     } else {
       const double rho = 1.0 / k;  // the centre of the turn is (0, rho)
       const double dx = q.x(), dy = rho - q.y();
@@ -105,6 +113,7 @@ FieldLimit ProtectiveField::limit(double v, double w, const Pose2& since_scan) c
   }
   out.free_m = std::max(free, 0.0);
   out.forward_max_v = out.limited ? speed_for(out.free_m) : std::numeric_limits<double>::infinity();
+  out.brake_max_v = out.limited ? braking_speed_for(out.free_m) : std::numeric_limits<double>::infinity();
   return out;
 }
 

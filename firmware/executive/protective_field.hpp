@@ -29,12 +29,16 @@ struct ProtectiveFieldConfig {
   double front_margin_m = 0.05;  // left between the body and the nearest return after stopping
   double reaction_s = 0.1;       // command to wheels braking (RT cycle, CAN, drive), and a scan's age
   double reverse_max_v = 0.1;    // m/s backwards, unguarded
+  double restart_m = 0.02;       // after a protective stop, forward again only when this much more is free
   /// Empty when sound; else why not (the distance at max_v must stay inside the laser's range).
   std::string check(double max_v, double max_acc, double laser_range_m) const;
 };
 
 struct FieldLimit {
   double forward_max_v = 0;  // m/s; 0: blocked
+  /// The speed that still stops before the return braking at max_acc now, with no reaction
+  /// time: above it the robot cannot stop in time by ramping down (something stepped in).
+  double brake_max_v = 0;
   double reverse_max_v = 0;
   double free_m = 0;         // free travel along the requested arc (capped at the field's reach)
   Vec2 nearest{0, 0};        // the return that limits, robot frame (when one does)
@@ -56,6 +60,8 @@ class ProtectiveField {
   double stopping_distance(double v) const;
   /// The largest speed that stops within `free_m`.
   double speed_for(double free_m) const;
+  /// The same without the reaction time: braking at max_acc from now.
+  double braking_speed_for(double free_m) const;
   const ProtectiveFieldConfig& config() const { return cfg_; }
 
  private:

@@ -47,10 +47,27 @@ canopen::WheelCommand RobotCore::control(const ControlInputs& c, double dt) {
   in.reset = c.reset;
   in.v = c.v;
   in.w = c.w;
-  // The last scan's returns, moved by the odometry since (about 27 ms at most).
-  field_limit_ = field_.limit(c.v, c.w, odometry_pending().delta);
-  in.field_forward_max_v = field_limit_.forward_max_v;
-  in.field_reverse_max_v = field_limit_.reverse_max_v;
+  // The last scan's returns, moved by the odometry since (about 27 ms at most), guard both
+  // the arc requested (as the supervisor will clamp it; NaN: blocked) and the arc being
+  // driven (the ramps take a while to bend it onto the new one).
+  const SafetyLimits& lim = cfg_.safety;
+  const double rv = std::isfinite(c.v) ? std::clamp(c.v, -lim.max_v, lim.max_v) : c.v;
+  const double rw = std::isfinite(c.w) ? std::clamp(c.w, -lim.max_w, lim.max_w) : c.w;
+  const Pose2 since_scan = odometry_pending().delta;
+  const FieldLimit requested = field_.limit(rv, rw, since_scan);
+  // The arc being driven matters while the robot would cover more than 5 cm on it before
+  // the turn-rate ramp bends it onto the requested one (at a crawl it never does).
+  const double bend_s = std::isfinite(rw) ? std::abs(w_ - rw) / lim.max_alpha : 0.0;
+  const FieldLimit driving = v_ * bend_s > 0.05 ? field_.limit(v_, w_, since_scan) : requested;
+  field_limit_ = driving.forward_max_v < requested.forward_max_v ? driving : requested;
+  in.field_forward_max_v = std::min(requested.forward_max_v, driving.forward_max_v);
+  // Stopped by the field, it starts again only once restart_m more is free: range noise at
+  // the stopping point must not make it creep and stop, over and over.
+  if (stop_ == StopReason::kProtectiveField && field_limit_.free_m < cfg_.field.front_margin_m + cfg_.field.restart_m) {
+    in.field_forward_max_v = 0;
+  }
+  in.field_brake_max_v = std::min(requested.brake_max_v, driving.brake_max_v);
+  in.field_reverse_max_v = requested.reverse_max_v;
   double v = 0, w = 0;
   const StopReason reason = safety_.evaluate(in, dt, &v, &w);
   if (reason != stop_ && reason != StopReason::kNone) {

@@ -63,8 +63,8 @@ StopReason SafetySupervisor::evaluate(const SafetyInputs& in, double dt, double*
     const double fwd = std::max(0.0, in.field_forward_max_v);  // NaN fails the comparisons below: blocked
     if (tv > 0 && !(fwd > 0)) {
       r = StopReason::kProtectiveField;  // blocked ahead
-    } else if (v_ > 0 && !(v_ <= fwd + limits_.max_acc * dt)) {
-      r = StopReason::kProtectiveField;  // too fast to brake in time: stop now
+    } else if (v_ > 0 && !(v_ <= in.field_brake_max_v)) {
+      r = StopReason::kProtectiveField;  // braking from now would not stop in time: stop now
     } else if (tv > fwd) {
       tw *= fwd / tv;  // the same curvature, slower
       tv = fwd;

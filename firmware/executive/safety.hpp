@@ -14,8 +14,9 @@
 // The protective field is a speed limit, not a latch: forward speed is held to what the
 // robot can stop from before the nearest return on its path (the turn rate scaled with it,
 // keeping the path's curvature). Blocked (nothing allowed) with forward motion requested,
-// or already faster than braking at max_acc can bring down in time (something stepped in),
-// it stops at once with kProtectiveField; it clears when the path is free.
+// or already faster than braking at max_acc from now can stop in time (something stepped
+// in: the reaction-time budget is gone), it stops at once with kProtectiveField; it clears
+// when the path is free.
 #pragma once
 
 #include <cstdint>
@@ -62,6 +63,7 @@ struct SafetyInputs {
   // The protective field's limits for the requested arc (protective_field.hpp): forward
   // speed it can stop from (0: blocked) and the reverse cap.
   double field_forward_max_v = std::numeric_limits<double>::infinity();
+  double field_brake_max_v = std::numeric_limits<double>::infinity();  // stops braking now, no reaction time
   double field_reverse_max_v = std::numeric_limits<double>::infinity();
 };
 

@@ -469,7 +469,9 @@ TEST(TaskAllocator, MalformedBidsAreRefusedAndCounted) {
   EXPECT_FALSE(a.on_bid(bid(1, {item(0, 0, std::nan(""), 0, {0, 0, 1, 1})}), 0));
   EXPECT_FALSE(a.on_bid(bid(1, {item(0, 0, 50, 0, {1, 0, 0, 1})}), 0));  // inverted IGR
   EXPECT_FALSE(a.on_bid(bid(0, {}), 0));
-  EXPECT_EQ(a.counters().bids_rejected, 4u);
+  EXPECT_FALSE(a.on_bid(bid(1, {item(2e4, 0, 50, 0, {0, 0, 1, 1})}), 0));     // finite, but 20 km away
+  EXPECT_FALSE(a.on_bid(bid(1, {item(0, 0, 50, 0, {-1e300, 0, 1, 1})}), 0));  // an IGR as wide as the world
+  EXPECT_EQ(a.counters().bids_rejected, 6u);
   EXPECT_TRUE(tick(a, sec(1)).empty()) << "a refused bid schedules nothing";
 }
 
@@ -502,7 +504,10 @@ TEST(TaskAllocator, BidsWithMalformedUnreachableClustersAreRefused) {
   bad = good;
   bad.kind = static_cast<msg::UnreachableKind>(7);
   EXPECT_FALSE(a.on_bid(with_cluster(bad), 0));
-  EXPECT_EQ(a.counters().bids_rejected, 7u);
+  bad = good;
+  bad.min_x = -1e300;  // finite but absurd: would merge every area and overflow the picture
+  EXPECT_FALSE(a.on_bid(with_cluster(bad), 0));
+  EXPECT_EQ(a.counters().bids_rejected, 8u);
   EXPECT_EQ(a.counters().bids_received, 1u);
   EXPECT_EQ(a.unreachable().size(), 1u) << "only the good bid's cluster is held";
 }

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <vector>
 
@@ -120,6 +121,25 @@ TEST(ProtectiveField, TurningInPlaceIsFreeReverseIsCappedNoScanIsBlocked) {
   ProtectiveFieldConfig off;
   off.enabled = false;
   EXPECT_TRUE(std::isinf(field_seeing(wall_at(0.33), off).limit(0.5, 0.0, Pose2{}).forward_max_v));
+}
+
+TEST(ProtectiveField, ANonFiniteCommandIsBlockedAReturnBehindTheBodyIsNot) {
+  const ProtectiveField open = field_seeing(wall_at(5.0));
+  EXPECT_EQ(open.limit(0.5, std::numeric_limits<double>::quiet_NaN(), Pose2{}).forward_max_v, 0.0);
+  EXPECT_EQ(open.limit(std::numeric_limits<double>::infinity(), 0.0, Pose2{}).forward_max_v, 0.0);
+  // A return 0.1 m behind the body, on its line (a 270° laser, or the robot turned since the
+  // scan): driving forward never reaches it.
+  ProtectiveField f(ProtectiveFieldConfig{}, kMaxV, kAcc);
+  const std::vector<std::uint16_t> r = scan_of({{0.4, 0.0}});
+  f.on_scan(r.data(), r.size(), kAngleMin, kIncrement, Pose2{0, 0, std::numbers::pi});  // the laser faces backwards
+  const FieldLimit l = f.limit(0.5, 0.0, Pose2{});
+  EXPECT_FALSE(l.limited) << l.free_m;
+  EXPECT_TRUE(std::isinf(l.forward_max_v));
+  // ... while the same return ahead limits: 8 cm free, 3 cm beyond the margin.
+  const FieldLimit ahead = field_seeing(r).limit(0.5, 0.0, Pose2{});
+  EXPECT_TRUE(ahead.limited);
+  EXPECT_NEAR(ahead.free_m, 0.08, 0.005);
+  EXPECT_LT(ahead.forward_max_v, 0.2);
 }
 
 TEST(ProtectiveField, ConfigurationMustKeepTheFieldInsideTheLaserRange) {

@@ -193,6 +193,11 @@ TEST(RobotExplorer, HeldByTheProtectiveFieldItMarksTheBlockAndReplansRoundIt) {
   EXPECT_EQ(route.kind, msg::TaskKind::kGoto);
   EXPECT_TRUE(passes_north(route)) << "round the block, through the north gap";
   EXPECT_NEAR(route.target_x, 6.0, 0.3);
+  // Held on by the same return: its mark is renewed, not marked again into the ring.
+  for (const Nanos until = t + 3 * kNanosPerSecond; t < until; t += 10 * kNanosPerMilli) {
+    ex.on_safety(StopReason::kProtectiveField, ahead, at, t);
+  }
+  EXPECT_EQ(ex.counters().blocked_marks, 1u);
   // The mark is forgotten: the next period's plan takes the south gap again.
   const Nanos later = t + cfg.blocked_memory + 3 * kNanosPerSecond;
   ASSERT_TRUE(ex.step(map, at, later, &bid, &route).route);

@@ -26,6 +26,7 @@ struct Robot {
   double want_v = 0.5, want_w = 0.0;
   double field_forward = std::numeric_limits<double>::infinity();  // the protective field's limit
   double field_reverse = std::numeric_limits<double>::infinity();
+  double field_brake = std::numeric_limits<double>::infinity();
 
   StopReason cycle(bool reset = false) {
     clock.advance(kPeriod);
@@ -46,6 +47,7 @@ struct Robot {
     in.w = want_w;
     in.field_forward_max_v = field_forward;
     in.field_reverse_max_v = field_reverse;
+    in.field_brake_max_v = field_brake;
     return safety.evaluate(in, kDt, &v, &w);
   }
   // Runs until moving (or gives up): the ramp takes a few cycles.
@@ -194,15 +196,17 @@ TEST(ProtectiveFieldStop, SomethingSteppingInCloserThanBrakingReachesStopsAtOnce
   r.want_v = 0.8;
   for (int i = 0; i < 200; ++i) r.cycle();
   ASSERT_NEAR(r.v, 0.8, 1e-9);
-  // Allowed 0.79: braking keeps up (one cycle at max_acc takes 0.008 m/s off).
-  r.field_forward = 0.795;
-  EXPECT_EQ(r.cycle(), StopReason::kNone);
-  EXPECT_NEAR(r.v, 0.795, 1e-9);
-  // Allowed 0.5 while doing 0.795: a ramp would reach the obstacle, so stop now.
+  // Allowed 0.5, but braking from now still stops in time (0.9): ramp down at max_acc.
   r.field_forward = 0.5;
+  r.field_brake = 0.9;
+  EXPECT_EQ(r.cycle(), StopReason::kNone);
+  EXPECT_NEAR(r.v, 0.792, 1e-9);
+  // Braking from now would not stop in time (0.5 < 0.792): stop now.
+  r.field_brake = 0.5;
   EXPECT_EQ(r.cycle(), StopReason::kProtectiveField);
   EXPECT_EQ(r.v, 0.0);
   // A NaN limit is no licence to move.
+  r.field_brake = std::numeric_limits<double>::infinity();
   r.field_forward = std::numeric_limits<double>::quiet_NaN();
   EXPECT_EQ(r.cycle(), StopReason::kProtectiveField);
   EXPECT_EQ(r.v, 0.0);

@@ -1,6 +1,7 @@
 #include "tools/sim/explore_driver.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <array>
 #include <charconv>
 #include <cmath>
@@ -79,8 +80,11 @@ void ExploreDriver::plan_for(std::size_t index, const RobotView& r, std::vector<
   bumps_[index] = r.bumps;
   if (!task || !msg::task_moves(task->kind) || !r.localised) return;  // stop
   ++counters_.plans;
+  // What has held this robot (BlockMarks) is an obstacle in its plan only, as in cairn-robot.
+  marked_ = grid_;
+  marks_[index].stamp(&marked_, now_);
   const explore::PlanStatus s =
-      planner_.plan(grid_.geometry, grid_.cells.data(), r.global.translation(), task->target, &path_);
+      planner_.plan(marked_.geometry, marked_.cells.data(), r.global.translation(), task->target, &path_);
   if (s != explore::PlanStatus::kOk) {
     // The robot stands; the allocator's monitor takes the task back after its timeout.
     ++counters_.plan_failures;
@@ -95,6 +99,15 @@ bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, boo
     task_id_.resize(robots.size(), 0);
     bumps_.resize(robots.size(), 0);
     nav_.resize(robots.size(), firmware::NavMonitor(config_.nav_monitor));
+    marks_.resize(robots.size(), explore::BlockMarks(config_.blocks));
+  }
+  now_ = now;
+  std::vector<bool> held(robots.size(), false);  // marked what holds it: replan below
+  for (std::size_t k = 0; k < robots.size(); ++k) {
+    if (robots[k].localised && marks_[k].on_safety(robots[k].stop, robots[k].field_nearest, robots[k].global, now)) {
+      held[k] = true;
+      ++counters_.blocks_marked;
+    }
   }
   for (const RobotView& r : robots) {
     if (r.localised) allocator_.on_robot_pose(r.id, r.global.translation(), now);
@@ -102,7 +115,8 @@ bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, boo
   // Each robot's stuck report, as its RobotStatus would carry it: taken back at once.
   for (std::size_t k = 0; k < robots.size(); ++k) {
     const auto task = allocator_.task(robots[k].id);
-    const bool moving = task && task->active && msg::task_moves(task->kind);
+    // As cairn-robot: a task whose path the robot has followed to the end is not one it is stuck on.
+    const bool moving = task && task->active && msg::task_moves(task->kind) && !robots[k].path_done;
     const NavState was = nav_[k].state();
     const NavState s = nav_[k].update(task ? task->task_id : 0, moving, robots[k].stop, robots[k].local, now);
     if (s == NavState::kStuck && was != NavState::kStuck && allocator_.on_stuck(robots[k].id, task->task_id, now)) {
@@ -148,7 +162,7 @@ bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, boo
     const auto task = allocator_.task(robots[k].id);
     if (!task || !task->active || !msg::task_moves(task->kind)) continue;
     const bool bumped = robots[k].bumps != bumps_[k];
-    if (!bid_now && !bumped) continue;
+    if (!bid_now && !bumped && !held[k]) continue;
     if (bumped) ++counters_.replans_after_bump;
     plan_for(k, robots[k], orders, bumped);
   }

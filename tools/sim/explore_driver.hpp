@@ -15,6 +15,7 @@
 #include "basestation/explore/task_allocator.hpp"
 #include "common/occupancy_grid.hpp"
 #include "firmware/executive/path_follower.hpp"
+#include "firmware/explore/block_marks.hpp"
 #include "firmware/nav_monitor.hpp"
 #include "firmware/explore/frontier_bids.hpp"
 #include "firmware/explore/grid_planner.hpp"
@@ -53,6 +54,8 @@ struct ExploreConfig {
   /// Each robot's stuck report (firmware/nav_monitor.hpp), as cairn-robot sends it in
   /// RobotStatus: a stuck robot's task is taken back at once (TaskAllocator::on_stuck).
   firmware::NavMonitorConfig nav_monitor;
+  /// What holds a robot is marked into its own plans (explore::BlockMarks), as cairn-robot does.
+  explore::BlockMarksConfig blocks;
 };
 
 struct ExploreCounters {
@@ -63,6 +66,7 @@ struct ExploreCounters {
   std::uint64_t periods_on_distinct_frontiers = 0;
   std::uint64_t visits_taken = 0, visits_refused = 0;  // scheduled visits the base's checks passed / refused
   std::uint64_t stuck_reports = 0;  // robots that reported themselves stuck (each report once per episode)
+  std::uint64_t blocks_marked = 0;  // returns that held a robot, marked (or renewed) into its plans
 };
 
 class ExploreDriver {
@@ -75,6 +79,8 @@ class ExploreDriver {
     std::uint64_t bumps = 0;
     StopReason stop = StopReason::kNone;  // the robot's safety state (the stuck report's input)
     Vec2 local = Vec2::Zero();            // its local position (progress, for the stuck report)
+    bool path_done = true;                // it has followed its path to the end (arrived: not stuck)
+    Vec2 field_nearest = Vec2::Zero();    // the return limiting its protective field (robot frame)
   };
   /// A new path for robot `index` (global frame; empty: stop).
   struct PathOrder {
@@ -120,6 +126,9 @@ class ExploreDriver {
   std::vector<std::uint32_t> task_id_;   // per robot index: the task its path is for
   std::vector<std::uint64_t> bumps_;     // per robot index: bumps at the last plan
   std::vector<firmware::NavMonitor> nav_;  // per robot index: its stuck report
+  std::vector<explore::BlockMarks> marks_;  // per robot index: what has held it
+  ClassGrid marked_;                         // grid_ with one robot's marks, for its plan
+  Nanos now_ = 0;
   std::vector<msg::TaskAssignment> assignments_;
   std::vector<Vec2> path_;
   bool explored_ = false;

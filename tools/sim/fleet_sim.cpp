@@ -115,6 +115,8 @@ void FleetSim::explore_step() {
     v.bumps = r->bumps();
     v.stop = r->core().stop();
     v.local = r->core().local_pose().translation();
+    v.path_done = r->path_done();
+    v.field_nearest = r->core().field().nearest;
     views_.push_back(v);
   }
   orders_.clear();

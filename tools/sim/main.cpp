@@ -114,6 +114,7 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                       {"plans", d.plans},
                       {"plan_failures", d.plan_failures},
                       {"replans_after_bump", d.replans_after_bump},
+                      {"blocks_marked", d.blocks_marked},
                       {"periods_on_distinct_frontiers", d.periods_on_distinct_frontiers},
                       {"visits_taken", d.visits_taken},
                       {"visits_refused", d.visits_refused}}}};
