@@ -150,8 +150,8 @@ void read_explore(const ConfigSection& e, RobotExploreConfig* x) {
   x->bidder.sensor_range_m = e.number_or("sensor_range_m", x->bidder.sensor_range_m, {0.5, 80.0});
   x->bidder.frontier_spacing_m = e.number_or("frontier_spacing_m", x->bidder.frontier_spacing_m, {0.01, 10.0});
   x->bidder.gain_per_metre = e.number_or("gain_per_metre", x->bidder.gain_per_metre, {0.0, 1e6});
-  x->blocked_replan_after = seconds_key(e, "blocked_replan_after_s", x->blocked_replan_after, {0.1, 60.0});
-  x->blocked_memory = seconds_key(e, "blocked_memory_s", x->blocked_memory, {0.0, 3600.0});
+  x->blocks.replan_after = seconds_key(e, "blocked_replan_after_s", x->blocks.replan_after, {0.1, 60.0});
+  x->blocks.memory = seconds_key(e, "blocked_memory_s", x->blocks.memory, {0.0, 3600.0});
 }
 
 RobotConfig read(const ConfigDocument& doc) {

@@ -10,7 +10,7 @@ RobotExplorer::RobotExplorer(const RobotExploreConfig& config, std::uint16_t rob
       robot_id_(robot_id),
       bidder_(explore::sized(config.bidder, max_cells)),
       planner_(explore::sized(config.planner, max_cells)),
-      marks_({config.blocked_replan_after, config.blocked_memory, config.blocked_radius_m}) {
+      marks_(config.blocks) {
   grid_.cells.reserve(max_cells);
   path_.reserve(1024);
 }

@@ -8,7 +8,6 @@
 // pose come in with each call.
 #pragma once
 
-#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -27,10 +26,7 @@ struct RobotExploreConfig {
   Nanos bid_period = 2 * kNanosPerSecond;  // bids and replans this often
   explore::FrontierBidderConfig bidder;    // max_cells is taken from [map]
   explore::GridPlannerConfig planner;      // max_cells is taken from [map]
-  /// Held by the protective field this long, the robot marks what blocks it and replans.
-  Nanos blocked_replan_after = 1 * kNanosPerSecond;
-  Nanos blocked_memory = 20 * kNanosPerSecond;  // a mark is forgotten after this
-  double blocked_radius_m = 0.15;               // a mark is an obstacle disc this wide (before inflation)
+  explore::BlockMarksConfig blocks;       // what holds the robot, marked into its plans
 };
 
 struct RobotExploreCounters {

@@ -164,8 +164,8 @@ bool passes_north(const msg::TaskAssignment& r) {
 }
 
 // Issue 15: the protective field holds the robot in the south gap (something the map does
-// not show stands in it). After blocked_replan_after it marks what blocks it and replans
-// at once, through the north gap; the mark is forgotten after blocked_memory.
+// not show stands in it). After blocks.replan_after it marks what blocks it and replans
+// at once, through the north gap; the mark is forgotten after blocks.memory.
 TEST(RobotExplorer, HeldByTheProtectiveFieldItMarksTheBlockAndReplansRoundIt) {
   GlobalMap map(map_cfg(4));
   fill(&map, 2, 2, two_gaps);
@@ -199,7 +199,7 @@ TEST(RobotExplorer, HeldByTheProtectiveFieldItMarksTheBlockAndReplansRoundIt) {
   }
   EXPECT_EQ(ex.counters().blocked_marks, 1u);
   // The mark is forgotten: the next period's plan takes the south gap again.
-  const Nanos later = t + cfg.blocked_memory + 3 * kNanosPerSecond;
+  const Nanos later = t + cfg.blocks.memory + 3 * kNanosPerSecond;
   ASSERT_TRUE(ex.step(map, at, later, &bid, &route).route);
   EXPECT_FALSE(passes_north(route));
 }
