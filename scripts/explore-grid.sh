@@ -3,7 +3,8 @@
 # grid"): worlds A (office), B (two corridors), C (open hall) with RUNS runs per robot
 # count, and D (15 % random 1 m blocks) and E (10 % random 0.5 m clutter) with RUNS
 # generated maps, one run each, for 1, 2 and 3 robots, coordinated; world A also
-# uncoordinated. Builds the ci preset's cairn-eval if needed. Writes every run to
+# uncoordinated. The robots of a run share one world (--shared-world): they see each other,
+# their protective fields stop them for each other, and they can collide. Builds the ci preset's cairn-eval if needed. Writes every run to
 # build/explore-grid/WORLD/ and the table and figures to OUT (default
 # docs/figures/explore-grid). Exit status 1 if a run did not complete or a goal of the
 # issue is missed (in world A: two robots reach 95 % >= 1.6x sooner than one; three
@@ -26,7 +27,8 @@ grid() {  # LETTER WORLD EXTRA-ARGS...
   shift 2
   [ -n "${GRID_TABLE_ONLY:-}" ] && return 0
   echo "== explore-grid: world $letter ($world), $(( $(date +%s) - start )) s so far"
-  "$bin" explore --world "hil/worlds/$world" --robots 1,2,3 --runs "$runs" --seed 1 --out "$work/$letter" "$@" >/dev/null
+  "$bin" explore --world "hil/worlds/$world" --robots 1,2,3 --runs "$runs" --seed 1 --shared-world \
+    --out "$work/$letter" "$@" >/dev/null
   cp "$work/$letter/coverage.png" "$out/$letter-coverage.png"
   cp "$work/$letter/time_to_coverage.png" "$out/$letter-time-to-coverage.png"
 }
@@ -42,7 +44,8 @@ work, out, runs, wall = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv
 names = {"A": "office (one corridor, rooms)", "B": "two parallel corridors", "C": "open hall",
          "D": "15 % random 1 m blocks, a new map each run", "E": "10 % random 0.5 m clutter, a new map each run"}
 wall = round(sum(json.load(open(f"{work}/{w}/summary.json"))["wall_seconds"] for w in "ABCDE"))
-lines = [f"Made by `scripts/explore-grid.sh {runs}` in {wall} s wall. Times are simulated seconds "
+lines = [f"Made by `scripts/explore-grid.sh {runs}` in {wall} s wall; the robots of a run share one world. "
+         "Times are simulated seconds "
          "(mean ± sd over the runs that reached the level; \"k of n\" when not all did); "
          f"a failure is a final map that agrees with the truth on fewer than 75 % of its known cells.", ""]
 problems = []

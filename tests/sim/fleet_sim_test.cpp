@@ -172,17 +172,7 @@ TEST(FleetSimMap, RobotsInOneWorldReadEachOthersMarkersAndTheFleetIsBetterForIt)
 namespace cairn {
 namespace {
 
-// The smallest distance between two robots' true positions over the run's samples.
-double closest_approach(const sim::FleetSim& f) {
-  double best = 1e9;
-  const auto& s = f.samples();
-  for (std::size_t a = 0; a < s.size(); ++a) {
-    for (std::size_t b = a + 1; b < s.size() && s[b].t == s[a].t; ++b) {
-      best = std::min(best, std::hypot(s[a].truth.x - s[b].truth.x, s[a].truth.y - s[b].truth.y));
-    }
-  }
-  return best;
-}
+double closest_approach(const sim::FleetSim& f) { return f.closest_approach_m().value_or(1e9); }
 
 // In one shared world robots collide and stop; they never pass through each other. In
 // separate worlds (the default) the office tours cross, so the check can fail. The

@@ -47,6 +47,7 @@ struct ExploreCmdOptions {
   std::string mode = "coordinated";  // coordinated | uncoordinated | both (uncoordinated for counts > 1)
   std::uint64_t seed = 1;            // run k uses seed + k, for every robot count and mode
   bool random_maps = false;          // run k on the world's `random` line with its seed + k
+  bool shared_world = false;         // the robots in one world: they see, block and meet each other
   double duration = 900;             // simulated s per run (the cap)
   int jobs = 0;                      // runs at once; 0: one per core
   std::string out_dir;               // default explore-<world name>

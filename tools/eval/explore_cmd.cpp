@@ -30,6 +30,7 @@ struct RunSpec {
   int robots = 0, run = 0;
   std::uint64_t seed = 0;
   std::string world_path;
+  bool shared_world = false;
 };
 
 std::string read_text(const std::string& path) {
@@ -73,6 +74,7 @@ ExploreRun run_one(const RunSpec& spec, double duration, const std::string& out_
   cfg.duration_s = duration;
   cfg.seed = spec.seed;
   cfg.explore = true;
+  cfg.shared_world = spec.shared_world;
   cfg.exploration.allocator.coordinated = spec.mode == "coordinated";
   cfg.coverage_period = static_cast<Nanos>(kCoveragePeriodS * 1e9);
   sim::set_tool_speeds(&cfg);
@@ -94,6 +96,7 @@ ExploreRun run_one(const RunSpec& spec, double duration, const std::string& out_
   r.final_coverage = s.map.coverage;
   r.agreement = s.map.agreement;
   r.wall_offset_max_m = s.map.wall_offset_max_m;
+  r.closest_approach_m = s.closest_approach_m;
   for (const auto& rb : s.robots) {
     r.distance_m += rb.distance_m;
     r.bump_steps += rb.bumps;
@@ -141,7 +144,9 @@ nlohmann::json group_json(const ExploreGroup& g) {
           {"time_to_coverage_s", levels},
           {"coverage_mean", g.coverage_mean},
           {"agreement_mean", g.agreement_mean},
-          {"explored_at_mean_s", g.completed ? nlohmann::json(g.explored_at_mean) : nlohmann::json()}};
+          {"explored_at_mean_s", g.completed ? nlohmann::json(g.explored_at_mean) : nlohmann::json()},
+          {"closest_approach_min_m", opt(g.closest_approach_min_m)},
+          {"bump_steps", g.bump_steps}};
 }
 
 const ExploreGroup* find_group(const std::vector<ExploreGroup>& gs, const std::string& mode, int robots) {
@@ -168,14 +173,21 @@ std::string cell(const LevelStats& l, std::size_t runs) {
 std::string markdown_table(const std::vector<ExploreGroup>& gs) {
   std::string t =
       "| mode | robots | runs | explored | failures | 50 % (s) | 90 % (s) | 95 % (s) | 100 % (s) | final coverage | "
-      "agreement |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+      "agreement | closest approach (m) | bump steps |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   char buf[128];
   for (const auto& g : gs) {
     t += "| " + g.mode + " | " + std::to_string(g.robots) + " | " + std::to_string(g.runs) + " | " +
          std::to_string(g.completed) + " | " + std::to_string(g.failures) + " | ";
     for (std::size_t k = 0; k < 4; ++k) t += cell(g.level[k], g.runs) + " | ";
-    std::snprintf(buf, sizeof buf, "%.3f | %.3f |\n", g.coverage_mean, g.agreement_mean);
+    std::snprintf(buf, sizeof buf, "%.3f | %.3f | ", g.coverage_mean, g.agreement_mean);
     t += buf;
+    if (g.closest_approach_min_m) {
+      std::snprintf(buf, sizeof buf, "%.2f | ", *g.closest_approach_min_m);
+      t += buf;
+    } else {
+      t += "— | ";
+    }
+    t += std::to_string(g.bump_steps) + " |\n";
   }
   return t;
 }
@@ -244,7 +256,8 @@ int explore(const ExploreCmdOptions& o) {
     for (int n : o.robots) {
       if (o.mode == "both" && mode == std::string("uncoordinated") && n == 1) continue;  // one robot: the same run
       for (int k = 0; k < o.runs; ++k) {
-        specs.push_back({mode, n, k, o.seed + static_cast<std::uint64_t>(k), worlds[static_cast<std::size_t>(k)]});
+        specs.push_back(
+            {mode, n, k, o.seed + static_cast<std::uint64_t>(k), worlds[static_cast<std::size_t>(k)], o.shared_world});
       }
     }
   }
@@ -325,12 +338,14 @@ int explore(const ExploreCmdOptions& o) {
                     {"wall_offset_max_m", r.wall_offset_max_m},
                     {"distance_m", r.distance_m},
                     {"bump_steps", r.bump_steps},
+                    {"closest_approach_m", opt(r.closest_approach_m)},
                     {"wall_seconds", r.wall_s}});
   }
   const nlohmann::json summary = {
       {"world", o.world},
       {"world_name", world_name},
       {"random_maps", o.random_maps},
+      {"shared_world", o.shared_world},
       {"duration_s", o.duration},
       {"seed", o.seed},
       {"coverage_period_s", kCoveragePeriodS},

@@ -68,6 +68,10 @@ std::vector<ExploreGroup> aggregate(const std::vector<ExploreRun>& runs, double 
       if (is_failure(*r)) ++g.failures;
       g.coverage_mean += r->final_coverage;
       g.agreement_mean += r->agreement;
+      g.bump_steps += r->bump_steps;
+      if (r->closest_approach_m && (!g.closest_approach_min_m || *r->closest_approach_m < *g.closest_approach_min_m)) {
+        g.closest_approach_min_m = r->closest_approach_m;
+      }
     }
     g.coverage_mean /= static_cast<double>(g.runs);
     g.agreement_mean /= static_cast<double>(g.runs);

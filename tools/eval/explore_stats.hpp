@@ -34,6 +34,7 @@ struct ExploreRun {
   double final_coverage = 0, agreement = 0, wall_offset_max_m = 0;
   double distance_m = 0;  // all robots
   std::uint64_t bump_steps = 0;
+  std::optional<double> closest_approach_m;  // between two robots' centres (none with one robot)
   std::vector<double> curve_t, curve_coverage;  // the recorded coverage
   double wall_s = 0;
 };
@@ -52,6 +53,8 @@ struct ExploreGroup {
   LevelStats level[4];
   double coverage_mean = 0, agreement_mean = 0;
   double explored_at_mean = 0;  // over completed runs
+  std::optional<double> closest_approach_min_m;  // over the runs (none with one robot)
+  std::uint64_t bump_steps = 0;                   // all runs
   /// The mean coverage on a common time grid (runs that ended hold their final value).
   std::vector<double> curve_t, curve_mean, curve_min, curve_max;
 };

@@ -78,6 +78,9 @@ int main(int argc, char** argv) {
   xp->add_option("--seed", ex.seed, "seed of run 0")->capture_default_str();
   xp->add_flag("--random-maps", ex.random_maps,
                "run k on another map of the world's kind: its 'random' line's seed + k (the seed's environments D, E)");
+  xp->add_flag("--shared-world", ex.shared_world,
+               "all robots in one world: they see each other, their protective fields stop them for each other and "
+               "they can collide (default: a world per robot, robots pass through each other)");
   xp->add_option("--duration", ex.duration, "simulated seconds per run at most")->capture_default_str()
       ->check(CLI::Range(10.0, 1e5));
   xp->add_option("--jobs", ex.jobs, "runs at once (default: one per core)")->check(CLI::Range(1, 64));

@@ -274,8 +274,21 @@ std::vector<msg::Landmark> FleetSim::landmarks() const {
   return out;
 }
 
+std::optional<double> FleetSim::closest_approach_m() const {
+  std::optional<double> best;
+  // Samples of one instant are adjacent (every robot is sampled at the same steps).
+  for (std::size_t a = 0; a < samples_.size(); ++a) {
+    for (std::size_t b = a + 1; b < samples_.size() && samples_[b].t == samples_[a].t; ++b) {
+      const double d = (samples_[a].truth.translation() - samples_[b].truth.translation()).norm();
+      if (!best || d < *best) best = d;
+    }
+  }
+  return best;
+}
+
 FleetSummary FleetSim::summary(double wall_seconds) const {
   FleetSummary s;
+  s.closest_approach_m = closest_approach_m();
   for (const auto& r : robots_) {
     RobotSummary rs;
     rs.id = r->id();

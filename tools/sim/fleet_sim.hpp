@@ -111,6 +111,9 @@ struct FleetSummary {
   // Robots seen by robots (shared world): sightings, those without a read marker, those fused.
   std::uint64_t robot_sightings = 0, robot_sightings_unidentified = 0, robot_observations_used = 0;
   std::uint64_t robot_sightings_paired = 0;  // unread ones paired with the one robot that explains them
+  // The smallest distance between two robots' true centres over the samples (none with
+  // one robot). In one shared world bodies touch at twice the body radius.
+  std::optional<double> closest_approach_m;
   // Mean NIS of the fused sightings and landmark observations (FusionCounters; none if
   // nothing of the kind was fused): about 2 when the stated covariances are right.
   std::optional<double> sighting_nis_mean, landmark_nis_mean;
@@ -140,6 +143,8 @@ class FleetSim {
   /// Figures against the world's ground truth; wall time as measured by the caller.
   FleetSummary summary(double wall_seconds) const;
   const hil::World& world() const { return *worlds_.front(); }
+  /// FleetSummary::closest_approach_m, without the rest of the summary.
+  std::optional<double> closest_approach_m() const;
 
  private:
   struct Outbox;

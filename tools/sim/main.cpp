@@ -56,6 +56,7 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                         {"unidentified_paired", s.robot_sightings_paired},
                         {"fused", s.robot_observations_used},
                         {"nis_mean", s.sighting_nis_mean ? nlohmann::json(*s.sighting_nis_mean) : nlohmann::json()}}},
+                      {"closest_approach_m", s.closest_approach_m ? nlohmann::json(*s.closest_approach_m) : nlohmann::json()},
                       {"landmark_nis_mean", s.landmark_nis_mean ? nlohmann::json(*s.landmark_nis_mean) : nlohmann::json()},
                       {"map",
                        {{"scans_inserted", s.map_scans},
@@ -208,6 +209,7 @@ int run(const sim::FleetSimConfig& cfg, const std::string& out, bool json) {
     std::printf("robots seen by robots: %llu sightings, %llu without a read marker (%llu of them paired), %llu fused\n",
                 static_cast<unsigned long long>(s.robot_sightings), static_cast<unsigned long long>(s.robot_sightings_unidentified),
                 static_cast<unsigned long long>(s.robot_sightings_paired), static_cast<unsigned long long>(s.robot_observations_used));
+    if (s.closest_approach_m) std::printf("closest approach of two robots: %.3f m\n", *s.closest_approach_m);
     const auto nis = [](const std::optional<double>& mean) {
       char text[32] = "n/a (none fused)";
       if (mean) std::snprintf(text, sizeof text, "%.2f", *mean);
