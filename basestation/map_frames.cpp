@@ -23,17 +23,23 @@ bool MapFrames::record(std::uint16_t robot, Nanos t, const Pose2& local_to_globa
 bool MapFrames::place(mapper::Mapper& map, const msg::LaserScan& scan, const Fusion& fusion) {
   // Not localised, or restarted without odometry yet (the scan's local frame may be the
   // new boot's, which the fusion has not anchored): no place for it.
-  return record(fusion, scan.robot_id) && place(map, scan);
+  if (!record(fusion, scan.robot_id)) return false;
+  others_.clear();
+  msg::PoseCorrection c;
+  for (std::uint16_t id : fusion.robots()) {
+    if (id != scan.robot_id && fusion.correction(id, 0, &c)) others_.push_back(c.global_pose.translation());
+  }
+  return place(map, scan, others_);
 }
 
-bool MapFrames::place(mapper::Mapper& map, const msg::LaserScan& scan) const {
+bool MapFrames::place(mapper::Mapper& map, const msg::LaserScan& scan, std::span<const Vec2> robots) const {
   const auto it = robots_.find(scan.robot_id);
   if (it == robots_.end()) return false;
   const mapper::FrameHistory& h = it->second;
   std::optional<Pose2> frame = h.at(scan.stamp);
   if (!frame) frame = h.first();
   if (!frame) return false;
-  (void)map.add_scan_local(scan, *frame);  // refusals are the mapper's counters
+  (void)map.add_scan_local(scan, *frame, robots);  // refusals are the mapper's counters
   return true;
 }
 

@@ -7,6 +7,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <map>
+#include <span>
+#include <vector>
 
 #include "basestation/fusion.hpp"
 #include "basestation/mapper/frame_history.hpp"
@@ -31,13 +33,15 @@ class MapFrames {
   /// Records one robot's frame (local→global) at robot time t, of the local frame of boot
   /// `boot_epoch` that began at `boot_t0`; false if not finite.
   bool record(std::uint16_t robot, Nanos t, const Pose2& local_to_global, std::uint32_t boot_epoch = 0, Nanos boot_t0 = 0);
-  /// Records the robot's frame, then inserts the scan at the frame of its time. False
+  /// Records the robot's frame, then inserts the scan at the frame of its time, with the
+  /// other localised robots' bodies masked (their estimates now). False
   /// when the fusion has not localised the robot, or it restarted and has sent no
   /// odometry since: the scan has no place (the caller counts it).
   bool place(mapper::Mapper& map, const msg::LaserScan& scan, const Fusion& fusion);
   /// Inserts the scan at its robot's frame of its time (the first frame known for a scan
-  /// older than it); false when no frame of the robot is known.
-  bool place(mapper::Mapper& map, const msg::LaserScan& scan) const;
+  /// older than it); false when no frame of the robot is known. `robots`: the other
+  /// robots' global centres (Mapper::add_scan).
+  bool place(mapper::Mapper& map, const msg::LaserScan& scan, std::span<const Vec2> robots = {}) const;
   /// Re-renders every robot's stored scans that the frames of their times moved.
   void rerender(mapper::Mapper& map) const;
 
@@ -45,6 +49,7 @@ class MapFrames {
 
  private:
   std::size_t capacity_;
+  std::vector<Vec2> others_;  // place()'s scratch: the other robots' centres
   std::map<std::uint16_t, mapper::FrameHistory> robots_;  // the fusion's robots: bounded by its admission
 };
 

@@ -57,6 +57,8 @@ void validate(const MapperConfig& c) {
     bad("need p_min < p_c < p_o < p_max (otherwise a class can never be reached)");
   if (c.insert_every < 1) bad("insert_every must be >= 1");
   if (c.rerender_shift_m < 0) bad("rerender_shift_m must be >= 0");
+  fin(c.robot_mask_radius_m, "robot_mask_radius_m");
+  if (c.robot_mask_radius_m < 0 || c.robot_mask_radius_m > 5) bad("robot_mask_radius_m must be in [0, 5] m");
 }
 
 MapperConfig mapper_config_from(const ConfigSection& s) {
@@ -86,6 +88,7 @@ MapperConfig mapper_config_from(const ConfigSection& s) {
   c.store_bytes = static_cast<std::size_t>(s.number_or("store_mib", static_cast<double>(c.store_bytes) / (1 << 20), {0.0, 65536.0}) *
                                            (1 << 20));
   c.rerender_shift_m = s.number_or("rerender_shift_m", c.rerender_shift_m, {0.0, 100.0});
+  c.robot_mask_radius_m = s.number_or("robot_mask_radius_m", c.robot_mask_radius_m, {0.0, 5.0});
   try {
     validate(c);
   } catch (const std::invalid_argument& e) {
@@ -110,11 +113,12 @@ Mapper::Mapper(const MapperConfig& config) : config_(config) {
   mark_.assign(geometry_.cells(), 0);
 }
 
-Mapper::AddResult Mapper::add_scan_local(const msg::LaserScan& scan, const Pose2& local_to_global) {
-  return add_scan(scan, compose(local_to_global, scan.pose));
+Mapper::AddResult Mapper::add_scan_local(const msg::LaserScan& scan, const Pose2& local_to_global,
+                                         std::span<const Vec2> robots) {
+  return add_scan(scan, compose(local_to_global, scan.pose), robots);
 }
 
-Mapper::AddResult Mapper::add_scan(const msg::LaserScan& scan, const Pose2& sensor_pose) {
+Mapper::AddResult Mapper::add_scan(const msg::LaserScan& scan, const Pose2& sensor_pose, std::span<const Vec2> robots) {
   ++counters_.scans_received;
   if (!finite(sensor_pose) || !std::isfinite(scan.angle_min) || !std::isfinite(scan.angle_increment) ||
       scan.n_beams > msg::kMaxBeams) {
@@ -145,6 +149,7 @@ Mapper::AddResult Mapper::add_scan(const msg::LaserScan& scan, const Pose2& sens
     else if (m < config_.min_range_m)
       ++counters_.beams_short;
   }
+  mark_robot_returns(&s, sensor_pose, robots);
   render(s, sensor_pose, +1);
   ++counters_.scans_inserted;
 
@@ -161,6 +166,26 @@ Mapper::AddResult Mapper::add_scan(const msg::LaserScan& scan, const Pose2& sens
   store_bytes_ += b;
   store_.push_back(std::move(s));
   return AddResult::kInserted;
+}
+
+void Mapper::mark_robot_returns(Stored* s, const Pose2& sensor_pose, std::span<const Vec2> robots) {
+  const double r2 = config_.robot_mask_radius_m * config_.robot_mask_radius_m;
+  if (r2 <= 0 || robots.empty()) return;
+  for (std::size_t k = 0; k < s->ranges_mm.size(); ++k) {
+    const double r = s->ranges_mm[k] * 1e-3;
+    if (s->ranges_mm[k] == 0 || r >= config_.max_range_m || r < config_.min_range_m) continue;
+    const double a = sensor_pose.theta + static_cast<double>(s->angle_min) +
+                     static_cast<double>(s->angle_increment) * static_cast<double>(k);
+    const Vec2 end(sensor_pose.x + r * std::cos(a), sensor_pose.y + r * std::sin(a));
+    for (const Vec2& c : robots) {
+      if (!c.allFinite() || (end - c).squaredNorm() > r2) continue;
+      if (s->on_robot.empty()) s->on_robot.assign(s->ranges_mm.size(), false);
+      s->on_robot[k] = true;
+      ++counters_.beams_on_robots;
+      break;
+    }
+  }
+  s->on_robot.shrink_to_fit();
 }
 
 void Mapper::touch(int i, int j) {
@@ -191,6 +216,7 @@ void Mapper::render(const Stored& s, const Pose2& pose, int sign) {
   for (std::size_t k = 0; k < n; ++k) {
     const double r = s.ranges_mm[k] * 1e-3;
     if (s.ranges_mm[k] == 0 || r >= config_.max_range_m || r < config_.min_range_m) continue;
+    if (!s.on_robot.empty() && s.on_robot[k]) continue;  // a robot's body: no obstacle (pass 2 skips its cell too)
     const double a = pose.theta + static_cast<double>(s.angle_min) + static_cast<double>(s.angle_increment) * static_cast<double>(k);
     int i = 0, j = 0;
     if (!geometry_.cell_of(pose.x + r * std::cos(a), pose.y + r * std::sin(a), &i, &j)) continue;

@@ -26,6 +26,7 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "basestation/mapper/grid.hpp"
@@ -71,6 +72,12 @@ struct MapperConfig {
   // A stored scan is re-rendered when a correction moves its beam endpoints by more than
   // this: |Δt| + |Δθ|·max_range_m > rerender_shift_m. Half a cell by default.
   double rerender_shift_m = 0.075;
+
+  // A return within this distance of another robot's estimated centre (at insertion) is
+  // that robot's body, not the building: its beam clears the cells before it and marks no
+  // obstacle. The body (0.3 m) plus what the estimates and 0.1 s of motion may be off.
+  // 0: robots are drawn as obstacles.
+  double robot_mask_radius_m = 0.45;
 };
 
 /// Reads [mapper] (every key optional, defaults above; docs/config.md). Throws ConfigError.
@@ -87,6 +94,7 @@ struct MapperCounters {
   std::uint64_t beams_clipped = 0;       // beams leaving the grid (inserted up to the border)
   std::uint64_t beams_short = 0;         // r < min_range_m
   std::uint64_t beams_max_range = 0;     // no return or r >= max_range_m: cleared only
+  std::uint64_t beams_on_robots = 0;     // ending on another robot's body: cleared only
   std::uint64_t store_dropped = 0;       // oldest scans dropped from a full store (frozen in the grid)
   std::uint64_t scans_not_stored = 0;    // a single scan larger than the whole store
   std::uint64_t rerendered = 0;          // scans moved by a correction
@@ -124,10 +132,12 @@ class Mapper {
   /// One LaserScan with the global pose of its *sensor* at scan.stamp. Subsampled per
   /// robot (insert_every); rejected (counted) for a non-finite pose or a sensor outside
   /// the grid. Never throws on data.
-  AddResult add_scan(const msg::LaserScan& scan, const Pose2& sensor_pose);
+  /// `robots`: the global centres of the other robots now; returns on their bodies
+  /// (robot_mask_radius_m) clear the cells before them and mark no obstacle.
+  AddResult add_scan(const msg::LaserScan& scan, const Pose2& sensor_pose, std::span<const Vec2> robots = {});
   /// The same with the robot's local-to-global transform (PoseCorrection::local_to_global):
   /// sensor pose = local_to_global ⊕ scan.pose.
-  AddResult add_scan_local(const msg::LaserScan& scan, const Pose2& local_to_global);
+  AddResult add_scan_local(const msg::LaserScan& scan, const Pose2& local_to_global, std::span<const Vec2> robots = {});
 
   /// Re-renders robot `robot`'s stored scans: `sensor_pose_at` gives each one's new
   /// global sensor pose (nullopt: leave it). Scans that moved by more than
@@ -172,12 +182,17 @@ class Mapper {
     ScanInfo info;
     float angle_min = 0, angle_increment = 0;
     std::vector<std::uint16_t> ranges_mm;
+    std::vector<bool> on_robot;  // per beam, a return on another robot; empty when none is
     bool removed = false;  // moved outside the grid by a correction; erased after the pass
   };
-  static std::size_t bytes_of(const Stored& s) { return sizeof(Stored) + s.ranges_mm.capacity() * sizeof(std::uint16_t); }
+  static std::size_t bytes_of(const Stored& s) {
+    return sizeof(Stored) + s.ranges_mm.capacity() * sizeof(std::uint16_t) + s.on_robot.capacity() / 8;
+  }
 
   /// Adds (sign +1) or removes (-1) one scan's contribution at `pose`.
   void render(const Stored& s, const Pose2& pose, int sign);
+  /// Sets s->on_robot for the returns within robot_mask_radius_m of a robot centre.
+  void mark_robot_returns(Stored* s, const Pose2& sensor_pose, std::span<const Vec2> robots);
   void touch(int i, int j);
   bool moved_enough(const Pose2& a, const Pose2& b) const;
 

@@ -254,6 +254,55 @@ TEST(MapFrames, TheFusionsFrameIsRecordedAtItsEstimatesTimeAndOnlyLocalisedRobot
   EXPECT_FALSE(frames.place(map, s, fusion));
 }
 
+// Robot 1 looks along x at a wall 3 m ahead; robot 2 (a 0.3 m disc) stands 1.5 m ahead
+// of it. Placed through the fusion, robot 1's returns on robot 2 are not drawn once robot
+// 2 is localised; before, they are (the mask uses the fusion's estimates, not truth).
+TEST(MapFrames, AnotherLocalisedRobotsBodyIsNotDrawnAsAnObstacle) {
+  FusionConfig fc = robot_1_at({0.0, 0.0, 0.0});
+  RobotPrior p2 = fc.robots[1];
+  p2.pose = {1.5, 0.0, 0.0};
+  fc.robots[2] = p2;
+  Fusion fusion(fc);
+  msg::LaserScan s;
+  s.robot_id = 1;
+  s.seq = 1;
+  s.stamp = kS;
+  s.angle_min = -0.5f;
+  s.angle_increment = 0.01f;
+  s.n_beams = 101;
+  for (std::uint16_t b = 0; b < s.n_beams; ++b) {
+    const double a = static_cast<double>(s.angle_min) + b * static_cast<double>(s.angle_increment);
+    const Vec2 d(std::cos(a), std::sin(a)), c(1.5, 0.0);
+    double r = 3.0 / d.x();
+    const double along = d.dot(c), off2 = c.squaredNorm() - along * along;
+    if (off2 < 0.09) r = std::min(r, along - std::sqrt(0.09 - off2));
+    s.ranges_mm[b] = static_cast<std::uint16_t>(std::lround(r * 1000));
+  }
+  auto odometry = [&](std::uint16_t robot) {
+    msg::OdometryIncrement o;
+    o.robot_id = robot;
+    o.seq = 1;
+    o.t1 = kS;
+    o.delta_cov = {1e-6, 0, 0, 0, 1e-6, 0, 0, 0, 1e-6};
+    ASSERT_EQ(fusion.on_odometry(o), Fusion::Result::kApplied);
+  };
+  auto body_cell = [](const mapper::Mapper& m) {
+    int i = 0, j = 0;
+    EXPECT_TRUE(m.geometry().cell_of(1.25, 0.05, &i, &j));  // robot 2's near surface
+    return m.classify(i, j);
+  };
+  odometry(1);
+  mapper::Mapper alone(corridor_config()), together(corridor_config());
+  MapFrames frames;
+  ASSERT_TRUE(frames.place(alone, s, fusion));  // robot 2 not localised: drawn
+  EXPECT_EQ(body_cell(alone), Cell::kObstacle);
+  EXPECT_EQ(alone.counters().beams_on_robots, 0u);
+  odometry(2);
+  ASSERT_TRUE(frames.place(together, s, fusion));
+  EXPECT_NE(body_cell(together), Cell::kObstacle);
+  EXPECT_GT(together.counters().beams_on_robots, 0u);
+}
+
 // A robot restarts (new boot epoch, new local frame) while the base keeps its map. The
 // restart may reach the fusion first through a features message, before the new boot's
 // first odometry: the fusion then has no time for the new frame. The scans of the old

@@ -195,6 +195,58 @@ TEST(Mapper, RerenderingIsExactAndOnlyMovesScansBeyondTheThreshold) {
   expect_same_grid(m, again);
 }
 
+// A fan of beams from the origin: a wall 3 m ahead, and another robot (a 0.3 m disc)
+// standing at (1.5, 0) between, hiding part of the wall.
+msg::LaserScan scan_with_robot_ahead() {
+  std::vector<double> r;
+  const double a0 = -0.6, inc = 0.01;
+  const Vec2 c(1.5, 0.0);
+  for (double a = a0; a <= 0.6 + 1e-9; a += inc) {
+    const Vec2 d(std::cos(a), std::sin(a));
+    double range = 3.0 / d.x();  // the wall x = 3
+    const double along = d.dot(c), off2 = c.squaredNorm() - along * along;
+    if (off2 < 0.09) range = std::min(range, along - std::sqrt(0.09 - off2));
+    r.push_back(range);
+  }
+  return make_scan(1, r, a0, inc);
+}
+
+// Robots see each other in a shared building: another robot's body is not a wall. The
+// returns on it clear the cells before it and leave no obstacle, also after a re-render;
+// the wall around it is drawn as before. With the mask off the robot is drawn (the test
+// can fail).
+TEST(Mapper, ReturnsOnAnotherRobotsBodyAreNotDrawnAsObstacles) {
+  const msg::LaserScan scan = scan_with_robot_ahead();
+  const Pose2 at{0.05, 0.05, 0.0};
+  const std::vector<Vec2> robots{Vec2(1.6, 0.1)};  // its estimate, 5 cm off in x and y (the body is at (1.55, 0.05))
+  MapperConfig off = small_config();
+  off.robot_mask_radius_m = 0;
+  Mapper masked(small_config()), drawn(off);
+  for (int k = 0; k < 4; ++k) {
+    masked.add_scan(scan, at, robots);
+    drawn.add_scan(scan, at, robots);
+  }
+  EXPECT_EQ(cell_at(drawn, 1.25, 0.05), Cell::kObstacle);  // the body's near surface
+  EXPECT_NE(cell_at(masked, 1.25, 0.05), Cell::kObstacle);
+  EXPECT_EQ(cell_at(masked, 0.95, 0.05), Cell::kClear);  // the beam still clears before the body
+  EXPECT_EQ(cell_at(masked, 3.05, 1.05), Cell::kObstacle);  // the wall beside it
+  EXPECT_GT(masked.counters().beams_on_robots, 0u);
+  EXPECT_EQ(drawn.counters().beams_on_robots, 0u);
+  // Moved by a correction, the scan keeps its mask.
+  const Pose2 shifted{0.3, 0.0, 0.0};
+  masked.on_frame_corrected(1, shifted);
+  int obstacles_near_body = 0;
+  for (double x = 1.35; x < 2.0; x += 0.1) {
+    for (double y = -0.35; y < 0.4; y += 0.1) obstacles_near_body += cell_at(masked, x, y) == Cell::kObstacle;
+  }
+  EXPECT_EQ(obstacles_near_body, 0);
+  // Non-finite robot centres are ignored, never crash.
+  Mapper nan_robot(small_config());
+  const std::vector<Vec2> bad{Vec2(std::numeric_limits<double>::quiet_NaN(), 0.0)};
+  EXPECT_EQ(nan_robot.add_scan(scan, at, bad), Mapper::AddResult::kInserted);
+  EXPECT_EQ(nan_robot.counters().beams_on_robots, 0u);
+}
+
 TEST(Mapper, FullStoreDropsOldestScansWhichStayFrozenInTheGrid) {
   const auto scans = room_scans(1, 5);
   MapperConfig c = small_config();
@@ -269,7 +321,7 @@ TEST(Mapper, InvalidConfigurationIsRefusedWithTheParameterNamed) {
 TEST(MapperConfig, ReadsTheMapperSectionStrictly) {
   const auto doc = ConfigDocument::parse(
       "[mapper]\nresolution_m = 0.1\norigin = [-5.0, -2.0]\nsize_m = [20.0, 10.0]\np_o = 0.7\np_c = 0.2\n"
-      "insert_every = 3\nstore_mib = 1.5\nrerender_shift_m = 0.05\nmax_range_m = 8.0\n",
+      "insert_every = 3\nstore_mib = 1.5\nrerender_shift_m = 0.05\nmax_range_m = 8.0\nrobot_mask_radius_m = 0.5\n",
       "test.toml");
   const MapperConfig c = mapper_config_from(doc.root().section("mapper"));
   doc.finish();
@@ -278,6 +330,7 @@ TEST(MapperConfig, ReadsTheMapperSectionStrictly) {
   EXPECT_DOUBLE_EQ(c.height_m, 10.0);
   EXPECT_DOUBLE_EQ(c.p_o, 0.7);
   EXPECT_EQ(c.insert_every, 3);
+  EXPECT_DOUBLE_EQ(c.robot_mask_radius_m, 0.5);
   EXPECT_EQ(c.store_bytes, static_cast<std::size_t>(1.5 * (1 << 20)));
   const Mapper m(c);
   EXPECT_EQ(m.geometry().width, 200);
