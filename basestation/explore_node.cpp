@@ -20,12 +20,14 @@ ExploreNode::ExploreNode(const dds::Participant& pp, const explore::AllocatorCon
       visit_reader_(pp, visit_topic_, dds::state_qos(1)) {  // volatile: never an old request
 }
 
-void ExploreNode::take_visits(Nanos now, const Fusion& fusion) {
+void ExploreNode::take_visits(Nanos now, const Fusion& fusion, const mapper::Mapper* map) {
   msg::PoseCorrection c;
   visit_reader_.take([&](const cairn_VisitRequest& d, const dds_sample_info_t&) {
     msg::VisitRequest v;
     (void)dds::from_dds(d, &v);
-    VisitVerdict verdict = check_visit(v, fusion.correction(v.robot_id, 0, &c));
+    std::optional<Cell> target;
+    if (map) target = target_cell_of(map->geometry(), v.x, v.y, [map](int i, int j) { return map->classify(i, j); });
+    VisitVerdict verdict = check_visit(v, fusion.correction(v.robot_id, 0, &c), target);
     if (verdict == VisitVerdict::kAccepted && !allocator_.request_visit(v.robot_id, Vec2(v.x, v.y), now)) {
       verdict = VisitVerdict::kRobotLost;
     }
@@ -44,7 +46,7 @@ void ExploreNode::take_visits(Nanos now, const Fusion& fusion) {
   });
 }
 
-bool ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet) {
+bool ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet, const mapper::Mapper* map) {
   // Only robots the fusion tracks (bounded by configuration), and only once the fleet has
   // heard from them.
   for (const std::uint16_t id : fusion.robots()) {
@@ -61,7 +63,7 @@ bool ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet) {
   for (const std::uint16_t id : fusion.robots()) {
     if (fusion.correction(id, 0, &c)) allocator_.on_robot_pose(id, c.global_pose.translation(), now);
   }
-  take_visits(now, fusion);
+  take_visits(now, fusion, map);
   bid_reader_.take([&](const cairn_Bid& d, const dds_sample_info_t&) {
     msg::Bid bid;
     if (!dds::from_dds(d, &bid)) ++counters_.bids_clamped;

@@ -15,6 +15,7 @@
 #include "basestation/explore/visit_check.hpp"
 #include "basestation/fleet.hpp"
 #include "basestation/fusion.hpp"
+#include "basestation/mapper/mapper.hpp"
 #include "common/dds/topics.hpp"
 
 namespace cairn::base {
@@ -35,7 +36,8 @@ class ExploreNode {
   /// Takes the visit requests and bids that arrived, tells the allocator every localised robot's global pose
   /// and every change of link, runs it and writes what it assigns. Never blocks. Returns
   /// true in the poll where exploration became complete (once per completion).
-  bool poll(Nanos now, const Fusion& fusion, const Fleet& fleet);
+  /// `map`: the central map visit targets are checked against (none: not checked).
+  bool poll(Nanos now, const Fusion& fusion, const Fleet& fleet, const mapper::Mapper* map = nullptr);
   /// A robot's RobotStatus navigation report (common/nav_state.hpp). kStuck on its
   /// current task: the allocator takes the task back at once (logged); anything else,
   /// unknown values included, is ignored.
@@ -57,7 +59,7 @@ class ExploreNode {
   std::vector<msg::TaskAssignment> out_;
   ExploreNodeCounters counters_;
 
-  void take_visits(Nanos now, const Fusion& fusion);
+  void take_visits(Nanos now, const Fusion& fusion, const mapper::Mapper* map);
 };
 
 }  // namespace cairn::base

@@ -152,7 +152,7 @@ int run(const std::string& config_path, double duration_s) {
           }
         });
     fleet.tick(now);
-    if (explore && explore->poll(now, fusion->fusion(), fleet) && map) {
+    if (explore && explore->poll(now, fusion->fusion(), fleet, map ? &map->mapper() : nullptr) && map) {
       // Exploration just ended: save the map without being asked, and say what it covered
       // (after the export, which re-renders it: the area is that of the map written).
       export_map(*map, *fusion, explore.get(), cfg.map_export_dir, "exploration complete");

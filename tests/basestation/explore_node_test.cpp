@@ -307,5 +307,32 @@ TEST(ExploreNode, VisitChecksRefuseNonFiniteFarAndUnlocalised) {
   EXPECT_EQ(check_visit(v, true), VisitVerdict::kNotFinite);
 }
 
+// A target the robots could never plan to is refused at once, with the reason, instead of
+// being assigned and failing when the robot reports itself stuck.
+TEST(ExploreNode, VisitChecksRefuseATargetThatIsUnmappedOrAnObstacle) {
+  ClassGrid g;
+  g.geometry = {0.5, 0.0, 0.0, 4, 2};  // 2 m × 1 m
+  g.cells.assign(g.geometry.cells(), Cell::kUnknown);
+  g.at(1, 0) = Cell::kClear;
+  g.at(2, 0) = Cell::kObstacle;
+  const auto cell = [&g](double x, double y) {
+    return target_cell_of(g.geometry, x, y, [&g](int i, int j) { return g.at(i, j); });
+  };
+  msg::VisitRequest v;
+  v.x = 0.7;
+  v.y = 0.2;
+  EXPECT_EQ(check_visit(v, true, cell(v.x, v.y)), VisitVerdict::kAccepted);
+  EXPECT_EQ(check_visit(v, true, std::nullopt), VisitVerdict::kAccepted);  // no map: not checked
+  v.x = 1.2;
+  EXPECT_EQ(check_visit(v, true, cell(v.x, v.y)), VisitVerdict::kInObstacle);
+  v.x = 0.2;
+  EXPECT_EQ(check_visit(v, true, cell(v.x, v.y)), VisitVerdict::kNotMapped);
+  EXPECT_EQ(cell(5.0, 0.2), Cell::kUnknown);   // outside the map
+  EXPECT_EQ(cell(std::nan(""), 0.2), Cell::kUnknown);
+  EXPECT_NE(std::string(visit_verdict_text(VisitVerdict::kNotMapped)).find("not mapped"), std::string::npos);
+  // The robot's own checks come first: an unlocalised robot is that, whatever the map says.
+  EXPECT_EQ(check_visit(v, false, Cell::kUnknown), VisitVerdict::kNotLocalised);
+}
+
 }  // namespace
 }  // namespace cairn::base

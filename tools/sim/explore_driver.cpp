@@ -1,5 +1,7 @@
 #include "tools/sim/explore_driver.hpp"
 
+#include "common/log.hpp"
+
 #include <algorithm>
 #include <cstdio>
 #include <array>
@@ -64,11 +66,18 @@ void ExploreDriver::take_visits(Nanos now, const std::vector<RobotView>& robots)
     v.x = sv.target.x();
     v.y = sv.target.y();
     const auto r = std::find_if(robots.begin(), robots.end(), [&](const RobotView& rv) { return rv.id == sv.robot; });
-    base::VisitVerdict verdict = base::check_visit(v, r != robots.end() && r->localised);
+    const Cell target = base::target_cell_of(grid_.geometry, v.x, v.y, [this](int i, int j) { return grid_.at(i, j); });
+    base::VisitVerdict verdict = base::check_visit(v, r != robots.end() && r->localised, target);
     if (verdict == base::VisitVerdict::kAccepted && !allocator_.request_visit(sv.robot, sv.target, now)) {
       verdict = base::VisitVerdict::kRobotLost;
     }
-    ++(verdict == base::VisitVerdict::kAccepted ? counters_.visits_taken : counters_.visits_refused);
+    if (verdict == base::VisitVerdict::kAccepted) {
+      ++counters_.visits_taken;
+    } else {
+      ++counters_.visits_refused;
+      CAIRN_LOG_WARN("explore", "visit request for robot {} to ({:.2f}, {:.2f}) at {:.1f} s refused: {}", sv.robot, v.x, v.y,
+                     nanos_to_seconds(now), base::visit_verdict_text(verdict));
+    }
   }
 }
 
