@@ -26,7 +26,10 @@ void ExploreNode::take_visits(Nanos now, const Fusion& fusion, const mapper::Map
     msg::VisitRequest v;
     (void)dds::from_dds(d, &v);
     std::optional<Cell> target;
-    if (map) target = target_cell_of(map->geometry(), v.x, v.y, [map](int i, int j) { return map->classify(i, j); });
+    if (map) {
+      target = visit_target_class(map->geometry(), v.x, v.y, allocator_.config().arrival_radius_m,
+                                  [map](int i, int j) { return map->classify(i, j); });
+    }
     VisitVerdict verdict = check_visit(v, fusion.correction(v.robot_id, 0, &c), target);
     if (verdict == VisitVerdict::kAccepted && !allocator_.request_visit(v.robot_id, Vec2(v.x, v.y), now)) {
       verdict = VisitVerdict::kRobotLost;

@@ -307,28 +307,42 @@ TEST(ExploreNode, VisitChecksRefuseNonFiniteFarAndUnlocalised) {
   EXPECT_EQ(check_visit(v, true), VisitVerdict::kNotFinite);
 }
 
-// A target the robots could never plan to is refused at once, with the reason, instead of
-// being assigned and failing when the robot reports itself stuck.
-TEST(ExploreNode, VisitChecksRefuseATargetThatIsUnmappedOrAnObstacle) {
+// A target no robot could arrive at (no clear cell within the allocator's arrival radius:
+// paths run over clear cells) is refused at once, with the reason, instead of being
+// assigned and failing when the robot reports itself stuck. A target on an obstacle or
+// unknown cell with a clear cell within the radius is accepted: the planner goes to the
+// nearest reachable clear cell, and arriving there is arriving.
+TEST(ExploreNode, VisitChecksRefuseATargetWithNoClearCellWithinTheArrivalRadius) {
   ClassGrid g;
-  g.geometry = {0.5, 0.0, 0.0, 4, 2};  // 2 m × 1 m
+  g.geometry = {0.5, 0.0, 0.0, 4, 2};  // 2 m × 1 m; cell centres at 0.25, 0.75, 1.25, 1.75
   g.cells.assign(g.geometry.cells(), Cell::kUnknown);
   g.at(1, 0) = Cell::kClear;
   g.at(2, 0) = Cell::kObstacle;
-  const auto cell = [&g](double x, double y) {
-    return target_cell_of(g.geometry, x, y, [&g](int i, int j) { return g.at(i, j); });
+  g.at(3, 0) = Cell::kClear;
+  g.at(3, 1) = Cell::kObstacle;
+  const double radius = 0.3;
+  const auto cls = [&g, radius](double x, double y) {
+    return visit_target_class(g.geometry, x, y, radius, [&g](int i, int j) { return g.at(i, j); });
   };
   msg::VisitRequest v;
   v.x = 0.7;
   v.y = 0.2;
-  EXPECT_EQ(check_visit(v, true, cell(v.x, v.y)), VisitVerdict::kAccepted);
+  EXPECT_EQ(check_visit(v, true, cls(v.x, v.y)), VisitVerdict::kAccepted);
   EXPECT_EQ(check_visit(v, true, std::nullopt), VisitVerdict::kAccepted);  // no map: not checked
-  v.x = 1.2;
-  EXPECT_EQ(check_visit(v, true, cell(v.x, v.y)), VisitVerdict::kInObstacle);
-  v.x = 0.2;
-  EXPECT_EQ(check_visit(v, true, cell(v.x, v.y)), VisitVerdict::kNotMapped);
-  EXPECT_EQ(cell(5.0, 0.2), Cell::kUnknown);   // outside the map
-  EXPECT_EQ(cell(std::nan(""), 0.2), Cell::kUnknown);
+  v.x = 1.0;  // an obstacle cell, 0.25 m from the clear cell (1, 0)'s centre
+  EXPECT_EQ(check_visit(v, true, cls(v.x, v.y)), VisitVerdict::kAccepted);
+  v.x = 1.25;  // the obstacle cell's centre: the nearest clear centres are 0.5 m away
+  EXPECT_EQ(check_visit(v, true, cls(v.x, v.y)), VisitVerdict::kInObstacle);
+  v.x = 0.2;  // an unknown cell, 0.55 m from the clear one
+  EXPECT_EQ(check_visit(v, true, cls(v.x, v.y)), VisitVerdict::kNotMapped);
+  v.x = 1.75;
+  v.y = 0.75;  // an obstacle cell with the clear (3, 0) 0.5 m below: too far
+  EXPECT_EQ(check_visit(v, true, cls(v.x, v.y)), VisitVerdict::kInObstacle);
+  EXPECT_EQ(cls(2.02, 0.25), Cell::kClear);   // just outside the grid, 0.27 m from (3, 0)
+  EXPECT_EQ(cls(5.0, 0.25), Cell::kUnknown);  // far outside
+  EXPECT_EQ(cls(std::nan(""), 0.25), Cell::kUnknown);
+  EXPECT_EQ(cls(1e300, 0.25), Cell::kUnknown);
+  EXPECT_EQ(visit_target_class(g.geometry, 0.7, 0.2, 1e9, [&g](int i, int j) { return g.at(i, j); }), Cell::kClear);
   EXPECT_NE(std::string(visit_verdict_text(VisitVerdict::kNotMapped)).find("not mapped"), std::string::npos);
   // The robot's own checks come first: an unlocalised robot is that, whatever the map says.
   EXPECT_EQ(check_visit(v, false, Cell::kUnknown), VisitVerdict::kNotLocalised);

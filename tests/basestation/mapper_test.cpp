@@ -240,6 +240,11 @@ TEST(Mapper, ReturnsOnAnotherRobotsBodyAreNotDrawnAsObstacles) {
     for (double y = -0.35; y < 0.4; y += 0.1) obstacles_near_body += cell_at(masked, x, y) == Cell::kObstacle;
   }
   EXPECT_EQ(obstacles_near_body, 0);
+  // Exactly what inserting it there would have drawn (the old contribution removed bit for bit).
+  Mapper fresh(small_config());
+  const std::vector<Vec2> moved{Vec2(1.6 + 0.25, 0.1 - 0.05)};  // the robot moved with the frame
+  for (int k = 0; k < 4; ++k) fresh.add_scan(scan, shifted, moved);
+  expect_same_grid(masked, fresh);
   // Non-finite robot centres are ignored, never crash.
   Mapper nan_robot(small_config());
   const std::vector<Vec2> bad{Vec2(std::numeric_limits<double>::quiet_NaN(), 0.0)};

@@ -114,19 +114,21 @@ TEST(ExploreSim, UncoordinatedRobotsShareFrontiersMoreOften) {
 // An operator's visit request (cairn-sim --visit): at 30 s robot 2 is asked to go to
 // (12.5, 10), in the corridor; it leaves its frontier, gets there, and the allocator counts
 // the arrival. A request for a robot the base does not know (9) is refused by the base's
-// checks, as cairn-base refuses it. (A target in a room not yet mapped fails instead:
-// paths never enter unknown cells, and the monitor takes the visit back after 20 s.)
+// checks, as cairn-base refuses it; so is one at 3 s for robot 1 to the far corner room
+// (22, 17), which the map does not hold yet (paths never enter unknown cells): at once,
+// not after the robot has stood and reported itself stuck (visits_failed stays 0).
 TEST(ExploreSim, AVisitRequestSendsTheRobotThereAndBack) {
   sim::FleetSimConfig c = office_explore(5);
   c.duration_s = 90;
   const Vec2 target(12.5, 10.0);
-  c.exploration.visits = {sim::ScheduledVisit::parse("30:2:12.5:10"), sim::ScheduledVisit::parse("31:9:1:1")};
+  c.exploration.visits = {sim::ScheduledVisit::parse("30:2:12.5:10"), sim::ScheduledVisit::parse("31:9:1:1"),
+                          sim::ScheduledVisit::parse("3:1:22:17")};
   sim::FleetSim f(c);
   f.run();
   const sim::FleetSummary s = f.summary(1.0);
   ASSERT_TRUE(s.explore.has_value());
   EXPECT_EQ(s.explore->driver.visits_taken, 1u);
-  EXPECT_EQ(s.explore->driver.visits_refused, 1u);
+  EXPECT_EQ(s.explore->driver.visits_refused, 2u);
   EXPECT_EQ(s.explore->allocator.visits_requested, 1u);
   EXPECT_EQ(s.explore->allocator.visits_arrived, 1u);
   EXPECT_EQ(s.explore->allocator.visits_failed, 0u);

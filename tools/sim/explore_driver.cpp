@@ -66,7 +66,9 @@ void ExploreDriver::take_visits(Nanos now, const std::vector<RobotView>& robots)
     v.x = sv.target.x();
     v.y = sv.target.y();
     const auto r = std::find_if(robots.begin(), robots.end(), [&](const RobotView& rv) { return rv.id == sv.robot; });
-    const Cell target = base::target_cell_of(grid_.geometry, v.x, v.y, [this](int i, int j) { return grid_.at(i, j); });
+    // The map of the last bid round (at most bid_period old).
+    const Cell target = base::visit_target_class(grid_.geometry, v.x, v.y, allocator_.config().arrival_radius_m,
+                                                 [this](int i, int j) { return grid_.at(i, j); });
     base::VisitVerdict verdict = base::check_visit(v, r != robots.end() && r->localised, target);
     if (verdict == base::VisitVerdict::kAccepted && !allocator_.request_visit(sv.robot, sv.target, now)) {
       verdict = base::VisitVerdict::kRobotLost;
