@@ -1,5 +1,9 @@
-# cairn_add_test(NAME name SOURCES ... LIBS ... LABELS ... [TIMEOUT s])
+# cairn_add_test(NAME name SOURCES ... LIBS ... LABELS ... [TIMEOUT s] [COUNT_ALLOCS])
 # One GoogleTest executable registered as one CTest test with the area labels.
+# COUNT_ALLOCS: outside the sanitizers' builds, links the counting allocator
+# (tests/support/alloc_counter.cpp) and defines CAIRN_COUNT_ALLOCS, so the test can prove
+# its subject allocates nothing; under the sanitizers neither (the counting malloc would
+# bypass their own allocator).
 # Every test runs with the project's loopback-only Cyclone DDS profile.
 set(CAIRN_TEST_ENVIRONMENT
   "CYCLONEDDS_URI=file://${PROJECT_SOURCE_DIR}/config/dds/loopback.xml"
@@ -8,8 +12,14 @@ set(CAIRN_TEST_ENVIRONMENT
   "TSAN_OPTIONS=suppressions=${PROJECT_SOURCE_DIR}/tests/tsan.supp")
 
 function(cairn_add_test)
-  cmake_parse_arguments(T "" "NAME;TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
+  cmake_parse_arguments(T "COUNT_ALLOCS" "NAME;TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
+  if(T_COUNT_ALLOCS AND NOT CAIRN_SANITIZE)
+    list(APPEND T_SOURCES ${PROJECT_SOURCE_DIR}/tests/support/alloc_counter.cpp)
+  endif()
   add_executable(${T_NAME} ${T_SOURCES})
+  if(T_COUNT_ALLOCS AND NOT CAIRN_SANITIZE)
+    target_compile_definitions(${T_NAME} PRIVATE CAIRN_COUNT_ALLOCS)
+  endif()
   target_link_libraries(${T_NAME} PRIVATE ${T_LIBS} GTest::gtest_main)
   cairn_warnings(${T_NAME})
   cairn_unoptimized_when_sanitized(${T_NAME})
