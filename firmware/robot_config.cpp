@@ -150,6 +150,13 @@ void read_explore(const ConfigSection& e, RobotExploreConfig* x) {
   x->bidder.sensor_range_m = e.number_or("sensor_range_m", x->bidder.sensor_range_m, {0.5, 80.0});
   x->bidder.frontier_spacing_m = e.number_or("frontier_spacing_m", x->bidder.frontier_spacing_m, {0.01, 10.0});
   x->bidder.gain_per_metre = e.number_or("gain_per_metre", x->bidder.gain_per_metre, {0.0, 1e6});
+  x->bidder.wall_gap_m = e.number_or("wall_gap_m", x->bidder.wall_gap_m, {0.0, 1.0});
+  if (e.has("area_m")) {  // [min_x, min_y, max_x, max_y], global frame
+    const std::vector<double> a = e.numbers("area_m", 4, 4);
+    if (!(a[0] < a[2] && a[1] < a[3])) e.fail("area_m", "must be [min_x, min_y, max_x, max_y] with min < max");
+    x->bidder.has_area = true;
+    x->bidder.area_min_x = a[0], x->bidder.area_min_y = a[1], x->bidder.area_max_x = a[2], x->bidder.area_max_y = a[3];
+  }
   x->blocks.replan_after = seconds_key(e, "blocked_replan_after_s", x->blocks.replan_after, {0.1, 60.0});
   x->blocks.memory = seconds_key(e, "blocked_memory_s", x->blocks.memory, {0.0, 3600.0});
 }

@@ -23,6 +23,8 @@ constexpr std::uint8_t kUnreachable = 32;  // an unreachable frontier cell
 constexpr std::uint8_t kClustered = 64;    // an unreachable frontier cell already in a cluster
 constexpr std::uint32_t kNotInHeap = std::numeric_limits<std::uint32_t>::max();
 constexpr double kEps = 1e-9;  // in cells²: a distance exactly on a limit counts as on the limit
+constexpr double kMaxWallGapM = 1.0;  // a wider gap is an opening
+constexpr int kMaxWallGapCells = 8;   // bounds the wall-gap test's work per cell: 4 · 2 · 8 reads
 
 constexpr int kDi4[4] = {1, -1, 0, 0};
 constexpr int kDj4[4] = {0, 0, 1, -1};
@@ -62,6 +64,12 @@ FrontierBidder::FrontierBidder(const FrontierBidderConfig& config) : config_(con
   require(c.min_gain_cells >= 1, "min_gain_cells", "must be >= 1", static_cast<double>(c.min_gain_cells));
   require(std::isfinite(c.gain_per_metre) && c.gain_per_metre >= 0, "gain_per_metre", "must be finite and >= 0",
           c.gain_per_metre);
+  require(std::isfinite(c.wall_gap_m) && c.wall_gap_m >= 0 && c.wall_gap_m <= kMaxWallGapM, "wall_gap_m",
+          "must be finite and in [0, " + std::to_string(kMaxWallGapM) + "]", c.wall_gap_m);
+  if (c.has_area)
+    require(std::isfinite(c.area_min_x) && std::isfinite(c.area_min_y) && std::isfinite(c.area_max_x) &&
+                std::isfinite(c.area_max_y) && c.area_min_x < c.area_max_x && c.area_min_y < c.area_max_y,
+            "area", "must be finite with min < max", c.area_max_x - c.area_min_x);
   flags_.assign(c.max_cells, 0);
   cost_.assign(c.max_cells, 0.0);
   heap_.assign(c.max_cells, 0);
@@ -85,6 +93,22 @@ BidStatus FrontierBidder::compute(const GridGeometry& g, const Cell* cells, cons
   const auto start = static_cast<std::uint32_t>(g.index(ri, rj));
   if (cells[start] == Cell::kObstacle) return BidStatus::kRobotInObstacle;
 
+  area_i0_ = area_j0_ = 0;
+  area_i1_ = g.width - 1;
+  area_j1_ = g.height - 1;
+  if (config_.has_area) {  // the cells whose centre lies inside (possibly none)
+    // Clamped in double before the cast: a far-away area must not overflow an int.
+    auto first = [&](double lo, double origin, int size) {
+      return static_cast<int>(std::clamp(std::ceil((lo - origin) / g.resolution - 0.5), -1.0, static_cast<double>(size)));
+    };
+    auto last = [&](double hi, double origin, int size) {
+      return static_cast<int>(std::clamp(std::floor((hi - origin) / g.resolution - 0.5), -1.0, static_cast<double>(size)));
+    };
+    area_i0_ = std::max(area_i0_, first(config_.area_min_x, g.origin_x, g.width));
+    area_j0_ = std::max(area_j0_, first(config_.area_min_y, g.origin_y, g.height));
+    area_i1_ = std::min(area_i1_, last(config_.area_max_x, g.origin_x, g.width));
+    area_j1_ = std::min(area_j1_, last(config_.area_max_y, g.origin_y, g.height));
+  }
   mark_blocked(g, cells);
   for_each_footprint_cell(g, cells, Vec2(robot.x, robot.y), config_.robot_radius_m,
                           [&](std::size_t k) { flags_[k] = static_cast<std::uint8_t>((flags_[k] & ~kBlocked) | kFootprint); });
@@ -272,10 +296,9 @@ Cell FrontierBidder::class_of(const Cell* cells, std::size_t k) const {
 // never move; what lies behind it is reached from the frontier cells beside it).
 bool FrontierBidder::is_frontier(const GridGeometry& g, const Cell* cells, int i, int j) const {
   const std::size_t k = g.index(i, j);
-  if ((flags_[k] & kFootprint) || cells[k] != Cell::kClear) return false;
+  if ((flags_[k] & kFootprint) || cells[k] != Cell::kClear || !in_area(i, j)) return false;
   for (int d = 0; d < 4; ++d)
-    if (g.contains(i + kDi4[d], j + kDj4[d]) && class_of(cells, g.index(i + kDi4[d], j + kDj4[d])) == Cell::kUnknown)
-      return true;
+    if (g.contains(i + kDi4[d], j + kDj4[d]) && unknown(cells, g, i + kDi4[d], j + kDj4[d])) return true;
   return false;
 }
 
@@ -316,6 +339,11 @@ void FrontierBidder::measure_gain(const GridGeometry& g, const Cell* cells, Cand
     if (class_of(cells, k) != Cell::kUnknown || gain_stamp_[k] == gain_epoch_) return;
     const double di = i - fi, dj = j - fj;
     if (di * di + dj * dj > range2) return;
+    if (!in_area(i, j) || in_wall_gap(g, cells, i, j)) {  // stamped: not tested again by this flood
+      gain_stamp_[k] = gain_epoch_;
+      ++(in_area(i, j) ? stats_.wall_gap_cells : stats_.outside_area_cells);
+      return;
+    }
     gain_stamp_[k] = gain_epoch_;
     gain_queue_[tail++] = static_cast<std::uint32_t>(k);
   };
@@ -333,6 +361,38 @@ void FrontierBidder::measure_gain(const GridGeometry& g, const Cell* cells, Cand
   }
   c->gain = static_cast<std::uint32_t>(tail);
   stats_.gain_cells_visited += tail;
+}
+
+// True when (i, j) lies in a run of at most n = floor(wall_gap_m / resolution) unknown
+// cells closed by an obstacle cell at both ends, along a row, a column or a diagonal. At a
+// grazing angle the beams step along a wall further apart than a cell, so a wall seen from
+// afar keeps holes one or two cells wide; behind them lies the unknown outside the
+// building or inside a block, which no robot can see. Work: at most 4 · 2n cell reads,
+// n <= kMaxWallGapCells.
+bool FrontierBidder::in_wall_gap(const GridGeometry& g, const Cell* cells, int i, int j) const {
+  // At most kMaxWallGapCells: the work per cell stays bounded whatever the map's resolution.
+  const int n = std::min(kMaxWallGapCells, static_cast<int>(std::floor(config_.wall_gap_m / g.resolution + 1e-9)));
+  if (n < 1) return false;
+  // Steps from (i, j) along (di, dj) to the first obstacle over unknown cells only, at most
+  // n; n + 1 when there is none (clear cell, map edge or too far).
+  auto to_obstacle = [&](int di, int dj) {
+    for (int s = 1; s <= n; ++s) {
+      const int a = i + s * di, b = j + s * dj;
+      if (!g.contains(a, b)) return n + 1;
+      const Cell c = class_of(cells, g.index(a, b));
+      if (c == Cell::kObstacle) return s;
+      if (c != Cell::kUnknown || !in_area(a, b)) return n + 1;
+    }
+    return n + 1;
+  };
+  static constexpr int kDirs[4][2] = {{1, 0}, {0, 1}, {1, 1}, {1, -1}};
+  for (const auto& d : kDirs) {
+    const int ahead = to_obstacle(d[0], d[1]);
+    if (ahead > n) continue;
+    const int behind = to_obstacle(-d[0], -d[1]);
+    if (ahead + behind - 1 <= n) return true;  // the run's length in unknown cells
+  }
+  return false;
 }
 
 void FrontierBidder::mark_spacing(const GridGeometry& g, std::uint32_t cell) {

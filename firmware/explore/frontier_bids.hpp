@@ -25,6 +25,17 @@ struct FrontierBidderConfig {
   std::size_t max_items = msg::kMaxBids;  // items per bid, <= msg::kMaxBids
   std::size_t min_gain_cells = 1;    // items expected to reveal fewer unknown cells are not bid
   double gain_per_metre = 10.0;      // ranking exchange rate: cells of gain worth one metre of travel
+  // A run of unknown cells at most this long (in cells: floor(wall_gap_m / resolution))
+  // between two obstacle cells, along a row, column or diagonal, is taken as wall cells the
+  // laser missed: the gain flood does not cross it, so what lies behind a wall or inside a
+  // block's outline is not counted as gain. 0 turns the rule off; at most 8 cells are tested.
+  double wall_gap_m = 0.30;
+  // The area to explore (global frame, m), e.g. the building's outline from its plan: cells
+  // whose centre lies outside are neither frontier cells nor gain. The map's grid usually
+  // has a margin around the building; without an area, the unknown in that margin, behind
+  // the outer walls, counts as gain that no robot can see. Unset: the whole map.
+  bool has_area = false;
+  double area_min_x = 0, area_min_y = 0, area_max_x = 0, area_max_y = 0;
 };
 
 enum class BidStatus : std::uint8_t {
@@ -56,6 +67,8 @@ struct BidStats {
   std::size_t candidates = 0;                  // reached frontier cells kept by the spacing rule
   std::size_t below_min_gain = 0;              // candidates dropped for too little gain
   std::size_t gain_cells_visited = 0;          // the information-gain floods' total work
+  std::size_t wall_gap_cells = 0;              // unknown cells the gain floods did not enter: wall gaps (per flood)
+  std::size_t outside_area_cells = 0;          // unknown cells the gain floods did not enter: outside the area (per flood)
 };
 
 class FrontierBidder {
@@ -88,6 +101,11 @@ class FrontierBidder {
   Cell class_of(const Cell* cells, std::size_t k) const;
   void consider(const GridGeometry& g, const Cell* cells, std::uint32_t cell);
   void measure_gain(const GridGeometry& g, const Cell* cells, Candidate* c);
+  bool in_wall_gap(const GridGeometry& g, const Cell* cells, int i, int j) const;
+  bool in_area(int i, int j) const { return i >= area_i0_ && i <= area_i1_ && j >= area_j0_ && j <= area_j1_; }
+  bool unknown(const Cell* cells, const GridGeometry& g, int i, int j) const {
+    return in_area(i, j) && class_of(cells, g.index(i, j)) == Cell::kUnknown;
+  }
   void mark_spacing(const GridGeometry& g, std::uint32_t cell);
   void offer(const Candidate& c);
   void flood_open(const GridGeometry& g, const Cell* cells, std::uint32_t start);
@@ -102,6 +120,7 @@ class FrontierBidder {
 
   FrontierBidderConfig config_;
   BidStats stats_;
+  int area_i0_ = 0, area_i1_ = 0, area_j0_ = 0, area_j1_ = 0;  // the area's cells in this map (inclusive)
   std::vector<std::uint8_t> flags_;        // per cell: kBlocked | kSettled | kNearKept | kFootprint | kOpen | kUnreachable | kClustered
   std::vector<double> cost_;               // path cost (m) from the robot's cell
   std::vector<std::uint32_t> heap_;        // Dijkstra's open set

@@ -362,6 +362,142 @@ TEST(FrontierBids, WallsStopBothFloodFills) {
   EXPECT_TRUE(north_was_in_range);  // the wall, not the range, kept the north out
 }
 
+// The unknown behind a hole of one or two cells in a wall (the laser missed wall cells
+// at a grazing angle), or inside a block whose outline lacks a cell, is not gain: the
+// gain flood does not cross a run of <= wall_gap_m of unknown cells closed by obstacles.
+// A doorway wider than that still bids everything beyond it; wall_gap_m = 0 restores the
+// plain flood (the hole then bids the whole unknown behind the wall).
+TEST(FrontierBids, UnknownBehindAHoleInAWallOrInsideABlockIsNotGain) {
+  // Clear room j 0..9; wall row j = 10 with a 1-cell hole at i = 3, a 2-cell hole at
+  // i = 7..8, a 3-cell hole at i = 14..16 (one more than the rule's two cells) and a 6-cell
+  // (0.9 m) doorway at i = 20..25 (more than the 1.5 m range from the small holes);
+  // unknown beyond (j >= 11).
+  // A block outline i 2..7, j 3..8 in the room with one side cell (7, 5) missing and
+  // its interior unknown.
+  Map m(30, 20);
+  m.fill(0, 0, 29, 9, Cell::kClear);
+  m.fill(0, 10, 29, 10, Cell::kObstacle);
+  m.fill(3, 10, 3, 10, Cell::kUnknown);
+  m.fill(7, 10, 8, 10, Cell::kUnknown);
+  m.fill(14, 10, 16, 10, Cell::kUnknown);
+  m.fill(20, 10, 25, 10, Cell::kUnknown);
+  m.fill(2, 3, 7, 8, Cell::kObstacle);
+  m.fill(3, 4, 6, 7, Cell::kUnknown);
+  m.fill(7, 5, 7, 5, Cell::kUnknown);
+  auto items_near = [&](const msg::Bid& bid, int i0, int i1, int j0, int j1) {
+    std::vector<msg::BidItem> out;
+    for (std::size_t k = 0; k < bid.n_items; ++k) {
+      const auto [i, j] = cell_of(m, bid.items[k]);
+      if (i >= i0 && i <= i1 && j >= j0 && j <= j1) out.push_back(bid.items[k]);
+    }
+    return out;
+  };
+  FrontierBidderConfig cfg = config(0.0, 1.5);
+  cfg.frontier_spacing_m = 0.0;  // every frontier cell is a candidate
+  ASSERT_DOUBLE_EQ(cfg.wall_gap_m, 0.30);  // the default: runs of up to 2 cells at 0.15 m
+  {
+    FrontierBidder bidder(cfg);
+    msg::Bid bid;
+    ASSERT_EQ(bidder.compute(m.g, m.c.data(), m.pose_at(15, 2), &bid), BidStatus::kOk);
+    EXPECT_TRUE(items_near(bid, 3, 3, 9, 9).empty());     // the 1-cell hole
+    EXPECT_TRUE(items_near(bid, 7, 8, 9, 9).empty());     // the 2-cell hole
+    EXPECT_TRUE(items_near(bid, 8, 8, 5, 5).empty());     // the block's missing side cell
+    EXPECT_EQ(bidder.stats().below_min_gain, 4u);         // those four frontier cells
+    // One gap cell met by each of those four floods, and both cells of the 2-cell hole met
+    // from behind by each of the 3-cell hole's three floods (within 10 cells of them).
+    EXPECT_EQ(bidder.stats().wall_gap_cells, 4u + 6u);
+    const auto wider = items_near(bid, 14, 16, 9, 9);
+    ASSERT_EQ(wider.size(), 3u) << "a 3-cell hole is an opening at wall_gap_m = 0.3 m";
+    for (const auto& item : wider) EXPECT_GT(item.gain, 20.0);
+    const auto door = items_near(bid, 20, 25, 9, 9);
+    ASSERT_EQ(door.size(), 6u);  // the doorway bids all it sees
+    for (const auto& item : door) {
+      const auto [fi, fj] = cell_of(m, item);
+      // No run of <= 2 unknown cells between obstacles lies in this doorway's flood.
+      EXPECT_EQ(item.gain, static_cast<double>(reference_gain(m, fi, fj, 1.5).count)) << fi;
+    }
+  }
+  cfg.wall_gap_m = 0.0;
+  {
+    FrontierBidder bidder(cfg);
+    msg::Bid bid;
+    ASSERT_EQ(bidder.compute(m.g, m.c.data(), m.pose_at(15, 2), &bid), BidStatus::kOk);
+    const auto hole = items_near(bid, 3, 3, 9, 9);
+    ASSERT_EQ(hole.size(), 1u);
+    EXPECT_EQ(hole[0].gain, static_cast<double>(reference_gain(m, 3, 9, 1.5).count));
+    EXPECT_GT(hole[0].gain, 20.0);  // the unknown behind the wall
+    const auto block = items_near(bid, 8, 8, 5, 5);
+    ASSERT_EQ(block.size(), 1u);
+    EXPECT_EQ(block[0].gain, 1.0 + 16.0);  // the missing cell and the 4 x 4 interior
+    EXPECT_EQ(bidder.stats().wall_gap_cells, 0u);
+  }
+}
+
+// A wall along a diagonal (the 4-connected flood does not leak between its cells) with
+// one cell missing: the gap is closed along the diagonal too.
+TEST(FrontierBids, AOneCellGapInADiagonalWallIsNotAnOpening) {
+  Map m(12, 12);
+  for (int j = 0; j < 12; ++j)
+    for (int i = 0; i < 12; ++i) m.c[m.g.index(i, j)] = i > j ? Cell::kClear : (i == j ? Cell::kObstacle : Cell::kUnknown);
+  m.fill(5, 5, 5, 5, Cell::kUnknown);  // the missing wall cell: frontier cells (6, 5) and (5, 4)
+  FrontierBidderConfig cfg = config(0.0, 1.5);
+  cfg.frontier_spacing_m = 0.0;
+  msg::Bid bid;
+  FrontierBidder with_rule(cfg);
+  with_rule.compute(m.g, m.c.data(), m.pose_at(10, 1), &bid);
+  EXPECT_EQ(with_rule.stats().frontier_cells, 2u);
+  EXPECT_EQ(with_rule.stats().below_min_gain, 2u);
+  EXPECT_EQ(bid.n_items, 0);
+  cfg.wall_gap_m = 0.0;
+  FrontierBidder without(cfg);
+  ASSERT_EQ(without.compute(m.g, m.c.data(), m.pose_at(10, 1), &bid), BidStatus::kOk);
+  ASSERT_EQ(bid.n_items, 2);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const auto [fi, fj] = cell_of(m, bid.items[k]);
+    EXPECT_EQ(bid.items[k].gain, static_cast<double>(reference_gain(m, fi, fj, 1.5).count));
+    EXPECT_GT(bid.items[k].gain, 20.0);  // the unknown side, through the gap
+  }
+}
+
+// The area to explore (the building's outline): unknown cells outside it are not gain
+// and clear cells outside it are not frontier cells, so the grid's margin around the
+// building does not pull robots to its outer walls.
+TEST(FrontierBids, UnknownOutsideTheAreaIsNotGainAndItsClearCellsAreNotFrontiers) {
+  // Clear i 0..9; unknown beyond; a clear patch i 20..22 (seen through a window, outside).
+  Map m(30, 10);
+  m.fill(0, 0, 9, 9, Cell::kClear);
+  m.fill(20, 0, 22, 9, Cell::kClear);
+  FrontierBidderConfig cfg = config(0.0, 1.5);
+  cfg.frontier_spacing_m = 0.0;
+  FrontierBidder whole(cfg);
+  msg::Bid bid;
+  ASSERT_EQ(whole.compute(m.g, m.c.data(), m.pose_at(2, 5), &bid), BidStatus::kOk);
+  EXPECT_EQ(whole.stats().frontier_cells, 10u + 20u);  // i = 9, and i = 20 and 22 (unreachable)
+  ASSERT_EQ(bid.n_items, 10);
+  EXPECT_GT(bid.items[0].gain, 40.0);
+  cfg.has_area = true;
+  // Cell centres (i + 0.5)·res inside: i <= 12 (12.5 < 13.4 < 13.5) and j >= 2 (1.5 < 2.4 < 2.5).
+  cfg.area_min_x = -5.0, cfg.area_min_y = 2.4 * kRes;
+  cfg.area_max_x = 13.4 * kRes, cfg.area_max_y = 5.0;
+  FrontierBidder inside(cfg);
+  ASSERT_EQ(inside.compute(m.g, m.c.data(), m.pose_at(2, 5), &bid), BidStatus::kOk);
+  EXPECT_EQ(inside.stats().frontier_cells, 8u);  // (9, 2..9): the patch and rows 0..1 are outside
+  EXPECT_EQ(inside.stats().unreachable_frontier_cells, 0u);
+  EXPECT_GT(inside.stats().outside_area_cells, 0u);
+  ASSERT_EQ(bid.n_items, 8);
+  for (std::size_t k = 0; k < bid.n_items; ++k) {
+    EXPECT_EQ(bid.items[k].gain, 24.0);  // i 10..12 x j 2..9, all within 10 cells of i = 9
+    EXPECT_NEAR(bid.items[k].igr_max_x, 13 * kRes, 1e-9);
+    EXPECT_NEAR(bid.items[k].igr_min_y, 2 * kRes, 1e-9);
+  }
+  cfg.area_min_x = 1e12, cfg.area_max_x = 2e12;  // entirely off the map: nothing, and no overflow
+  FrontierBidder far(cfg);
+  EXPECT_EQ(far.compute(m.g, m.c.data(), m.pose_at(2, 5), &bid), BidStatus::kNoFrontier);
+  cfg.area_min_x = -5.0, cfg.area_max_x = 13.4 * kRes;
+  cfg.area_max_x = cfg.area_min_x;
+  EXPECT_THROW(FrontierBidder{cfg}, std::invalid_argument);
+}
+
 // Two frontiers: near and small (a 3-cell unknown niche 1 m away), far and large (an
 // unknown hall 6 m away): the exchange rate decides the order.
 TEST(FrontierBids, RanksByGainMinusRateTimesCost) {
@@ -372,6 +508,7 @@ TEST(FrontierBids, RanksByGainMinusRateTimesCost) {
   m.fill(8, 12, 8, 12, Cell::kUnknown);            // the niche above (8, 11)
   FrontierBidderConfig cfg = config(0.0, 3.0);
   cfg.gain_per_metre = 0;
+  cfg.wall_gap_m = 0;  // the niche is one unknown cell between two wall cells: a wall gap otherwise
   FrontierBidder gain_only(cfg);
   msg::Bid bid;
   ASSERT_EQ(gain_only.compute(m.g, m.c.data(), m.pose_at(2, 10), &bid), BidStatus::kOk);
@@ -437,6 +574,8 @@ TEST(FrontierBids, BadConfigIsRejectedNamingTheParameter) {
   expect_rejected(with([](auto& c) { c.frontier_spacing_m = std::nan(""); }), "frontier_spacing_m");
   expect_rejected(with([](auto& c) { c.min_gain_cells = 0; }), "min_gain_cells");
   expect_rejected(with([](auto& c) { c.gain_per_metre = -1; }), "gain_per_metre");
+  expect_rejected(with([](auto& c) { c.wall_gap_m = -0.1; }), "wall_gap_m");
+  expect_rejected(with([](auto& c) { c.wall_gap_m = 1.5; }), "wall_gap_m");
 }
 
 TEST(FrontierBids, RefusesMapsItCannotHoldAndRobotsOffTheMap) {

@@ -86,6 +86,22 @@ TEST(RobotConfig, TheProtectiveFieldIsOnByDefaultReadAndKeptInsideTheLaserRange)
   EXPECT_NE(why.find("safety"), std::string::npos) << why;
 }
 
+TEST(RobotConfig, TheExplorationAreaAndWallGapAreReadAndChecked) {
+  const auto def = firmware::parse_robot_config(kDevices, "robot.toml");
+  EXPECT_FALSE(def.explore.bidder.has_area);
+  EXPECT_DOUBLE_EQ(def.explore.bidder.wall_gap_m, 0.3);
+  const auto set = firmware::parse_robot_config(kDevices + "[explore]\narea_m = [-1, -2, 20, 15.5]\nwall_gap_m = 0\n", "robot.toml");
+  EXPECT_TRUE(set.explore.bidder.has_area);
+  EXPECT_DOUBLE_EQ(set.explore.bidder.area_min_x, -1);
+  EXPECT_DOUBLE_EQ(set.explore.bidder.area_min_y, -2);
+  EXPECT_DOUBLE_EQ(set.explore.bidder.area_max_x, 20);
+  EXPECT_DOUBLE_EQ(set.explore.bidder.area_max_y, 15.5);
+  EXPECT_DOUBLE_EQ(set.explore.bidder.wall_gap_m, 0);
+  EXPECT_NE(error_of(kDevices + "[explore]\narea_m = [5, 0, 1, 3]\n").find("explore.area_m"), std::string::npos);
+  EXPECT_NE(error_of(kDevices + "[explore]\narea_m = [0, 0, 1]\n").find("explore.area_m"), std::string::npos);
+  EXPECT_NE(error_of(kDevices + "[explore]\nwall_gap_m = 2\n").find("explore.wall_gap_m"), std::string::npos);
+}
+
 TEST(RobotConfig, RefusesALocalMapWhoseWorkDoesNotFitTheRtPeriod) {
   // 1 cm cells passed the local map's own validation; the search alone is ~20 ms a scan.
   const std::string why = error_of(kDevices + "[mapping]\ngrid_resolution_m = 0.01\n");
