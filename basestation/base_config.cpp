@@ -79,6 +79,8 @@ BaseConfig from_document(const ConfigDocument& doc) {
         seconds_to_nanos(e->number_or("no_progress_timeout_s", nanos_to_seconds(a.no_progress_timeout), {0.5, 3600.0}));
     a.bar_duration = seconds_to_nanos(e->number_or("bar_s", nanos_to_seconds(a.bar_duration), {0.0, 86400.0}));
     a.arrival_radius_m = e->number_or("arrival_radius_m", a.arrival_radius_m, {0.01, 10.0});
+    a.look_radius_m = e->number_or("look_radius_m", a.look_radius_m, {0.01, 20.0});
+    a.give_up_attempts = static_cast<std::uint32_t>(e->integer_or("give_up_attempts", a.give_up_attempts, {0, 1000}));
     a.coordinated = e->boolean_or("coordinated", a.coordinated);
     // At the end, every listed robot with a known start pose drives back to it.
     if (e->boolean_or("return_home", true)) {

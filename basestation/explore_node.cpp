@@ -94,6 +94,9 @@ bool ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet, cons
     CAIRN_LOG_INFO("explore", "unreachable frontiers: {} (clusters the robots could not send: {})", left.size(),
                    allocator_.unreachable_dropped());
     for (const explore::UnreachableArea& a : left) CAIRN_LOG_INFO("explore", "unreachable: {}", explore::describe(a));
+    for (const Vec2& p : allocator_.given_up())
+      CAIRN_LOG_INFO("explore", "given up: the frontier at ({:.2f}, {:.2f}) m stayed after {} attempts", p.x(), p.y(),
+                     allocator_.config().give_up_attempts);
   }
   return completed;
 }
@@ -107,16 +110,17 @@ void ExploreNode::on_nav(std::uint16_t robot, std::uint8_t nav_state, std::uint3
 
 std::string ExploreNode::summary() const {
   const auto& a = allocator_.counters();
-  char line[320];
+  char line[360];
   std::snprintf(line, sizeof line,
                 "explore: %s; bids %llu (unlocalised %llu, rejected %llu), rounds %llu, assigned %llu, kept %llu, "
-                "idles %llu, timeouts %llu, stuck %llu, visits %llu (refused %llu), written %llu (failed %llu)",
+                "idles %llu, timeouts %llu, stuck %llu, given up %llu, visits %llu (refused %llu), written %llu (failed %llu)",
                 allocator_.explored() ? "explored" : "exploring", static_cast<unsigned long long>(counters_.bids_taken),
                 static_cast<unsigned long long>(counters_.bids_unlocalised),
                 static_cast<unsigned long long>(a.bids_rejected), static_cast<unsigned long long>(a.rounds),
                 static_cast<unsigned long long>(a.explore_assigned), static_cast<unsigned long long>(a.tasks_kept),
                 static_cast<unsigned long long>(a.idles), static_cast<unsigned long long>(a.timeouts),
-                static_cast<unsigned long long>(a.stuck_reports), static_cast<unsigned long long>(counters_.visits_taken),
+                static_cast<unsigned long long>(a.stuck_reports), static_cast<unsigned long long>(a.frontiers_given_up),
+                static_cast<unsigned long long>(counters_.visits_taken),
                 static_cast<unsigned long long>(counters_.visits_refused),
                 static_cast<unsigned long long>(counters_.assignments_written),
                 static_cast<unsigned long long>(counters_.write_failures));

@@ -22,6 +22,8 @@ void validate(const AllocatorConfig& c) {
   require(c.bar_duration >= 0, "bar_duration", "must be >= 0");
   require(std::isfinite(c.arrival_radius_m) && c.arrival_radius_m > 0, "arrival_radius_m", "must be finite and > 0");
   require(std::isfinite(c.same_frontier_m) && c.same_frontier_m >= 0, "same_frontier_m", "must be finite and >= 0");
+  require(std::isfinite(c.look_radius_m) && c.look_radius_m >= c.arrival_radius_m, "look_radius_m",
+          "must be finite and >= arrival_radius_m");
   for (const auto& [id, p] : c.home) {
     require(id != 0, "home", "robot id 0 is the base");
     require(std::isfinite(p.x()) && std::isfinite(p.y()), "home", "positions must be finite");

@@ -38,6 +38,16 @@ struct AllocatorConfig {
   /// cells 30 cm apart): a new bid's item this close to the current target continues the
   /// task, and a barred frontier bars items this close to it.
   double same_frontier_m = 0.3;
+  /// Giving up on a frontier no robot manages to see (docs/explore-executive.md, "Given-up
+  /// frontiers"). An attempt at a spot is a robot on an explore task coming within
+  /// look_radius_m of its target (once per task), or the task taken back there (no
+  /// progress, stuck). A spot with give_up_attempts attempts is given up: items within
+  /// look_radius_m of it are neither assigned nor counted by the end of exploration. A
+  /// frontier that survives robots standing beside it lies behind what the laser cannot see
+  /// (a pocket too narrow to enter, a wall's unseen cells); bars expire, so without this a
+  /// lone robot would go back to it until the run's time ran out. 0 never gives up.
+  double look_radius_m = 1.0;
+  std::uint32_t give_up_attempts = 2;
   /// false: no discount, each robot takes its own best item (the seed's comparison).
   bool coordinated = true;
   /// When exploration ends, a robot listed here is sent to its start position (global

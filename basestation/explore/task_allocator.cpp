@@ -147,6 +147,7 @@ void TaskAllocator::start_task(Robot& r, msg::TaskKind kind, Vec2 target, Nanos 
   r.target = target;
   r.active = kind != msg::TaskKind::kIdle;
   r.best_dist = std::numeric_limits<double>::infinity();
+  r.attempted = false;
   r.last_progress = now;  // no pose yet counts as no progress from the assignment on
 }
 
@@ -159,10 +160,11 @@ bool TaskAllocator::on_bid(const msg::Bid& bid, Nanos now) {
   Robot& r = robot(bid.robot_id);
   r.bid = bid;
   r.bid_fresh = true;
+  release_given_up(bid);
   if (!round_due_) round_due_ = now + config_.bid_wait;  // later bids join this round
   if (explored_) {
     const bool gain = std::any_of(bid.items.begin(), bid.items.begin() + bid.n_items,
-                                  [&](const msg::BidItem& it) { return it.gain > config_.min_gain; });
+                                  [&](const msg::BidItem& it) { return it.gain > config_.min_gain && !given_up(it.x, it.y); });
     if (gain) {  // the map changed (a door opened, a robot joined): explore again
       explored_ = false;
       ++counters_.explorations_resumed;
@@ -184,6 +186,7 @@ void TaskAllocator::on_robot_pose(std::uint16_t id, Vec2 global, Nanos now) {
   r.pose = global;
   if (!r.active) return;
   const double dist = (global - r.target).norm();
+  if (dist <= config_.look_radius_m && r.mode == Mode::kPool && r.kind == msg::TaskKind::kExplore) attempt(r);
   if (dist < r.best_dist - config_.progress_step_m) {
     r.best_dist = dist;
     r.last_progress = now;
@@ -232,6 +235,58 @@ bool TaskAllocator::barred(std::uint16_t id, double x, double y, Nanos now) cons
   });
 }
 
+bool TaskAllocator::given_up(double x, double y) const {
+  if (config_.give_up_attempts == 0) return false;
+  return std::any_of(spots_.begin(), spots_.end(), [&](const Spot& s) {
+    return s.attempts >= config_.give_up_attempts && (s.at - Vec2(x, y)).norm() <= config_.look_radius_m;
+  });
+}
+
+std::vector<Vec2> TaskAllocator::given_up() const {
+  std::vector<Vec2> out;
+  for (const Spot& s : spots_)
+    if (config_.give_up_attempts > 0 && s.attempts >= config_.give_up_attempts) out.push_back(s.at);
+  return out;
+}
+
+// One attempt per task at the spot of its target: the nearest spot within look_radius_m,
+// or a new one.
+void TaskAllocator::attempt(Robot& r) {
+  if (r.attempted) return;
+  r.attempted = true;
+  ++counters_.attempts;
+  Spot* spot = nullptr;
+  double best = config_.look_radius_m;
+  for (Spot& s : spots_) {
+    const double d = (s.at - r.target).norm();
+    if (d <= best) best = d, spot = &s;
+  }
+  if (spot == nullptr) {
+    spots_.push_back({r.target, 0});
+    spot = &spots_.back();
+  }
+  spot->gain = r.task_gain;
+  if (++spot->attempts == config_.give_up_attempts) ++counters_.frontiers_given_up;
+}
+
+// Not forever: a given-up spot that a bid offers again with more than twice the gain it had
+// at its last attempt has changed (a door opened, a robot moved away): its attempts start
+// over.
+void TaskAllocator::release_given_up(const msg::Bid& bid) {
+  if (config_.give_up_attempts == 0) return;
+  for (Spot& s : spots_) {
+    if (s.attempts < config_.give_up_attempts) continue;
+    for (std::size_t k = 0; k < bid.n_items; ++k) {
+      const msg::BidItem& it = bid.items[k];
+      if ((s.at - Vec2(it.x, it.y)).norm() <= config_.look_radius_m && it.gain > 2.0 * s.gain) {
+        s.attempts = 0;
+        ++counters_.given_up_released;
+        break;
+      }
+    }
+  }
+}
+
 void TaskAllocator::monitor(Nanos now) {
   const auto expired = std::remove_if(bars_.begin(), bars_.end(), [&](const Bar& b) { return now >= b.until; });
   counters_.bars_expired += static_cast<std::uint64_t>(bars_.end() - expired);
@@ -273,6 +328,7 @@ void TaskAllocator::take_back(std::uint16_t id, Robot& r, Nanos now) {
   r.active = false;
   switch (r.mode) {
     case Mode::kPool:  // take it back, bar the frontier for this robot, reassign everyone
+      if (r.kind == msg::TaskKind::kExplore) attempt(r);
       bars_.push_back({id, r.target, now + config_.bar_duration});
       ++counters_.bars_set;
       schedule_round(now, true);
@@ -309,7 +365,7 @@ void TaskAllocator::run_round(Nanos now) {
     unassigned.push_back(id);
     for (std::size_t k = 0; k < r.bid->n_items; ++k) {
       const msg::BidItem& it = r.bid->items[k];
-      if (barred(id, it.x, it.y, now)) continue;
+      if (barred(id, it.x, it.y, now) || given_up(it.x, it.y)) continue;
       candidates.push_back({id, &it, on_explore && contains(r.igr, it.x, it.y)});
     }
   }
@@ -352,12 +408,14 @@ void TaskAllocator::run_round(Nanos now) {
     const msg::BidItem& item = *it->second;
     if (on_explore && (Vec2(item.x, item.y) - r.target).norm() <= config_.same_frontier_m) {
       r.igr = igr_of(item);  // same frontier, fresher region; progress monitor untouched
+      r.task_gain = item.gain;
       ++counters_.tasks_kept;
       continue;
     }
     if (on_explore) ++counters_.switches;
     start_task(r, msg::TaskKind::kExplore, Vec2(item.x, item.y), now);
     r.igr = igr_of(item);
+    r.task_gain = item.gain;
     ++counters_.explore_assigned;
   }
   round_due_.reset();
@@ -372,7 +430,7 @@ bool TaskAllocator::check_explored(Nanos now) {
     any = true;
     if (r.active || !r.bid) return false;  // still working, or not yet reassessed since it arrived
     for (std::size_t k = 0; k < r.bid->n_items; ++k) {
-      if (r.bid->items[k].gain > config_.min_gain) return false;
+      if (r.bid->items[k].gain > config_.min_gain && !given_up(r.bid->items[k].x, r.bid->items[k].y)) return false;
     }
   }
   if (!any) return false;

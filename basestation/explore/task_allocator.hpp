@@ -36,6 +36,9 @@ struct AllocatorCounters {
   std::uint64_t visits_requested = 0, visits_rejected = 0, visits_arrived = 0, visits_failed = 0;
   std::uint64_t explored_reports = 0, explorations_resumed = 0;
   std::uint64_t homes_sent = 0;
+  std::uint64_t attempts = 0;           // robots that came within look_radius_m of a target, or were taken back there
+  std::uint64_t frontiers_given_up = 0;  // times a spot reached give_up_attempts (again after a release)
+  std::uint64_t given_up_released = 0;   // given-up spots offered again with more than twice their gain
   std::uint64_t assignments_emitted = 0;
 };
 
@@ -89,6 +92,9 @@ class TaskAllocator {
   /// The unreachable frontier in the robots' latest bids, merged across robots (largest
   /// first). What the end-of-exploration report lists.
   std::vector<UnreachableArea> unreachable() const;
+  /// Frontier spots given up now (give_up_attempts attempts, not released), in the order
+  /// of their first attempt.
+  std::vector<Vec2> given_up() const;
   /// Clusters the robots' latest bids counted but could not carry (beyond msg::kMaxUnreachable).
   std::uint64_t unreachable_dropped() const;
   const AllocatorCounters& counters() const { return counters_; }
@@ -119,6 +125,8 @@ class TaskAllocator {
     Rect igr;  // of the explore task's frontier, when kind == kExplore
     bool active = false;
     double best_dist = 0;  // progress monitor
+    bool attempted = false;  // this task already counted as an attempt at its target
+    double task_gain = 0;    // the explore task's item gain, as last assigned or kept
     Nanos last_progress = 0;
     std::uint32_t sent_task_id = 0;
   };
@@ -135,12 +143,21 @@ class TaskAllocator {
   void take_back(std::uint16_t id, Robot& r, Nanos now);
   void run_round(Nanos now);
   bool barred(std::uint16_t robot, double x, double y, Nanos now) const;
+  bool given_up(double x, double y) const;
+  void attempt(Robot& r);
+  void release_given_up(const msg::Bid& bid);
   bool check_explored(Nanos now);
   void emit(Nanos now, std::vector<msg::TaskAssignment>* out);
 
   AllocatorConfig config_;
   std::map<std::uint16_t, Robot> robots_;  // ordered: rounds and emission are deterministic
   std::vector<Bar> bars_;
+  struct Spot {
+    Vec2 at;  // the first attempt's target
+    std::uint32_t attempts = 0;
+    double gain = 0;  // the task's gain at the latest attempt
+  };
+  std::vector<Spot> spots_;  // attempted frontier spots, look_radius_m apart (grows with the tasks: base side)
   std::optional<Nanos> round_due_;
   bool full_round_ = false;  // every pool robot takes part, not only unassigned / new-bid ones
   bool explored_ = false;

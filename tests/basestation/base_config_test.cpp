@@ -64,7 +64,8 @@ TEST(BaseConfig, OutOfRangeAndUnknownKeysAreErrors) {
 TEST(BaseConfig, ExplorationIsOffByDefaultAndItsKeysAreRead) {
   EXPECT_FALSE(parse_base_config(kFleet, "base.toml").explore_enabled);
   const BaseConfig c = parse_base_config(std::string("[explore]\nenabled = true\nbid_wait_s = 0.2\nmin_gain = 35\n"
-                                                    "cells_per_metre = 4\nhysteresis_ratio = 0.9\ncoordinated = false\n") +
+                                                    "cells_per_metre = 4\nhysteresis_ratio = 0.9\ncoordinated = false\n"
+                                                    "look_radius_m = 1.5\ngive_up_attempts = 3\n") +
                                              kFleet,
                                          "base.toml");
   EXPECT_TRUE(c.explore_enabled);
@@ -73,6 +74,10 @@ TEST(BaseConfig, ExplorationIsOffByDefaultAndItsKeysAreRead) {
   EXPECT_DOUBLE_EQ(c.explore.cells_per_metre, 4);
   EXPECT_DOUBLE_EQ(c.explore.hysteresis_ratio, 0.9);
   EXPECT_FALSE(c.explore.coordinated);
+  EXPECT_DOUBLE_EQ(c.explore.look_radius_m, 1.5);
+  EXPECT_EQ(c.explore.give_up_attempts, 3u);
+  // A look radius inside the arrival radius would let an arrival go uncounted.
+  EXPECT_THROW(parse_base_config(std::string("[explore]\nlook_radius_m = 0.1\n") + kFleet, "look.toml"), ConfigError);
   // Robots go home at the end by default: the listed robots with a known start pose.
   const BaseConfig two = parse_base_config(std::string("[explore]\nenabled = true\n") + kFleet +
                                                "[[robot]]\nid = 2\ninitial_pose = [1.5, -2.0, 0.3]\n[[robot]]\nid = 3\n",

@@ -435,6 +435,78 @@ TEST(TaskAllocator, EndOfExplorationListsUnreachableFrontiersMergedAcrossRobots)
   EXPECT_EQ(a.unreachable().size(), 2u);
 }
 
+// A frontier that survives two robots' approaches (a pocket too narrow to enter, the
+// unseen inside of a block) is given up: not assigned again, not counted by the end of
+// exploration, which then ends; offered again with more than twice its gain, it is back. With give_up_attempts = 0 the same robot is sent back to
+// it for ever. One attempt per task, however many poses fall within look_radius_m.
+TEST(TaskAllocator, AFrontierStillThereAfterTwoApproachesIsGivenUpAndExplorationEnds) {
+  auto run = [](std::uint32_t give_up_attempts, TaskAllocator* out_allocator) {
+    AllocatorConfig c = test_config();
+    c.cells_per_metre = 0;
+    c.give_up_attempts = give_up_attempts;
+    TaskAllocator a(c);
+    std::uint32_t sent_to_a = 0;
+    double t = 0;
+    for (int visit = 0; visit < 4; ++visit) {
+      // The robot's bid: the same frontier, its kept cell shifting by up to 0.4 m.
+      const double x = 10 + 0.1 * visit, y = 0.1 * visit;
+      a.on_bid(bid(1, {item(x, y, 100, 5, {9, -1, 13, 3})}), sec(t));
+      const auto out = tick(a, sec(t + 0.5));
+      if (const auto* task = for_robot(out, 1); task != nullptr && task->kind == TaskKind::kExplore) ++sent_to_a;
+      for (double d : {3.0, 0.9, 0.6, 0.2}) a.on_robot_pose(1, Vec2(x - d, y), sec(t + 1 + 3 - d));  // approach, arrive
+      tick(a, sec(t + 4));
+      t += 5;
+    }
+    a.on_bid(bid(1, {item(10.3, 0.3, 100, 0, {9, -1, 13, 3})}), sec(t));
+    for (double u = t; u <= t + 2; u += 0.25) tick(a, sec(u));
+    *out_allocator = a;
+    return sent_to_a;
+  };
+  TaskAllocator a(test_config());
+  EXPECT_EQ(run(2, &a), 2u) << "sent to it twice, then never again";
+  EXPECT_EQ(a.counters().attempts, 2u) << "one attempt per task, not per pose";
+  EXPECT_EQ(a.counters().frontiers_given_up, 1u);
+  ASSERT_EQ(a.given_up().size(), 1u);
+  EXPECT_DOUBLE_EQ(a.given_up()[0].x(), 10.0);
+  EXPECT_TRUE(a.explored()) << "a given-up frontier does not hold the end of exploration";
+  // Not forever: offered again with more than twice its gain (a door opened), it is back.
+  a.on_bid(bid(1, {item(10.2, 0.2, 200, 0, {9, -1, 13, 3})}), sec(100));
+  EXPECT_EQ(a.counters().given_up_released, 0u) << "200 is not more than twice 100";
+  a.on_bid(bid(1, {item(10.2, 0.2, 201, 0, {9, -1, 13, 3})}), sec(101));
+  EXPECT_EQ(a.counters().given_up_released, 1u);
+  EXPECT_FALSE(a.explored()) << "exploration resumes";
+  expect_task(tick(a, sec(101.5)), 1, TaskKind::kExplore, 10.2, 0.2);
+  EXPECT_EQ(run(0, &a), 4u) << "without the rule it is assigned on every bid";
+  EXPECT_FALSE(a.explored());
+  EXPECT_EQ(a.counters().frontiers_given_up, 0u);
+}
+
+// A task taken back (stuck report or no progress) is an attempt at its frontier too: after
+// two take-backs the frontier is not assigned again, even once its bar has expired.
+TEST(TaskAllocator, TwoTakeBacksAtAFrontierGiveItUp) {
+  AllocatorConfig c = test_config();
+  c.cells_per_metre = 0;
+  c.bar_duration = sec(10);
+  TaskAllocator a(c);
+  const auto both = bid(1, {item(10, 0, 100, 0, {9, -1, 11, 1}), item(0, 10, 60, 0, {-1, 9, 1, 11})});
+  a.on_robot_pose(1, Vec2(0, 0), 0);
+  a.on_bid(both, 0);
+  auto out = tick(a, sec(0.5));
+  expect_task(out, 1, TaskKind::kExplore, 10, 0);
+  ASSERT_TRUE(a.on_stuck(1, for_robot(out, 1)->task_id, sec(1)));
+  expect_task(tick(a, sec(1)), 1, TaskKind::kExplore, 0, 10);
+  a.on_bid(both, sec(12));  // the bar expired at 11 s: back to A
+  out = tick(a, sec(12.5));
+  expect_task(out, 1, TaskKind::kExplore, 10, 0);
+  ASSERT_TRUE(a.on_stuck(1, for_robot(out, 1)->task_id, sec(13)));
+  EXPECT_EQ(a.counters().frontiers_given_up, 1u);
+  expect_task(tick(a, sec(13)), 1, TaskKind::kExplore, 0, 10);
+  a.on_bid(both, sec(30));  // long after the bar: A stays given up, B is kept
+  EXPECT_TRUE(tick(a, sec(30.5)).empty());
+  EXPECT_EQ(a.counters().attempts, 2u);
+  EXPECT_EQ(a.task(1)->target.y(), 10.0);
+}
+
 TEST(TaskAllocator, ConfigErrorsNameTheParameter) {
   const auto message = [](AllocatorConfig c) -> std::string {
     try {
@@ -458,6 +530,9 @@ TEST(TaskAllocator, ConfigErrorsNameTheParameter) {
   c = test_config();
   c.no_progress_timeout = 0;
   EXPECT_NE(message(c).find("no_progress_timeout"), std::string::npos);
+  c = test_config();
+  c.look_radius_m = c.arrival_radius_m / 2;  // an arrival must be an attempt
+  EXPECT_NE(message(c).find("look_radius_m"), std::string::npos);
   EXPECT_EQ(message(test_config()), "");
 }
 

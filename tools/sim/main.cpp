@@ -102,6 +102,9 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                       {"timeouts", a.timeouts},
                       {"stuck_reports", a.stuck_reports},
                       {"bars_set", a.bars_set},
+                      {"attempts", a.attempts},
+                      {"frontiers_given_up", a.frontiers_given_up},
+                      {"given_up_released", a.given_up_released},
                       {"explored_reports", a.explored_reports},
                       {"assignments_emitted", a.assignments_emitted},
                       {"visits_requested", a.visits_requested},
@@ -231,10 +234,11 @@ int run(const sim::FleetSimConfig& cfg, const std::string& out, bool json) {
     if (s.explore) {
       std::printf("exploration %s", s.explore->explored ? "ended: explored at" : "not ended (duration cap)");
       if (s.explore->explored) std::printf(" %.1f s", s.explore->explored_at_s);
-      std::printf("; %llu tasks assigned, %llu timeouts, %llu stuck reports, %llu plan failures\n",
+      std::printf("; %llu tasks assigned, %llu timeouts, %llu stuck reports, %llu frontiers given up, %llu plan failures\n",
                   static_cast<unsigned long long>(s.explore->allocator.explore_assigned),
                   static_cast<unsigned long long>(s.explore->allocator.timeouts),
                   static_cast<unsigned long long>(s.explore->allocator.stuck_reports),
+                  static_cast<unsigned long long>(s.explore->allocator.frontiers_given_up),
                   static_cast<unsigned long long>(s.explore->driver.plan_failures));
       std::printf("unreachable frontiers: %zu", s.explore->unreachable.size());
       if (s.explore->unreachable_dropped > 0)
