@@ -164,7 +164,7 @@ bool TaskAllocator::on_bid(const msg::Bid& bid, Nanos now) {
   if (!round_due_) round_due_ = now + config_.bid_wait;  // later bids join this round
   if (explored_) {
     const bool gain = std::any_of(bid.items.begin(), bid.items.begin() + bid.n_items,
-                                  [&](const msg::BidItem& it) { return it.gain > config_.min_gain && !given_up(it.x, it.y); });
+                                  [&](const msg::BidItem& it) { return has_gain(it); });
     if (gain) {  // the map changed (a door opened, a robot joined): explore again
       explored_ = false;
       ++counters_.explorations_resumed;
@@ -235,17 +235,23 @@ bool TaskAllocator::barred(std::uint16_t id, double x, double y, Nanos now) cons
   });
 }
 
+bool TaskAllocator::is_given_up(const Spot& s) const {
+  return config_.give_up_attempts > 0 && s.attempts >= config_.give_up_attempts;
+}
+
 bool TaskAllocator::given_up(double x, double y) const {
-  if (config_.give_up_attempts == 0) return false;
   return std::any_of(spots_.begin(), spots_.end(), [&](const Spot& s) {
-    return s.attempts >= config_.give_up_attempts && (s.at - Vec2(x, y)).norm() <= config_.look_radius_m;
+    return is_given_up(s) && (s.at - Vec2(x, y)).norm() <= config_.look_radius_m;
   });
 }
+
+// What keeps exploration going: an item above min_gain that is not given up.
+bool TaskAllocator::has_gain(const msg::BidItem& it) const { return it.gain > config_.min_gain && !given_up(it.x, it.y); }
 
 std::vector<Vec2> TaskAllocator::given_up() const {
   std::vector<Vec2> out;
   for (const Spot& s : spots_)
-    if (config_.give_up_attempts > 0 && s.attempts >= config_.give_up_attempts) out.push_back(s.at);
+    if (is_given_up(s)) out.push_back(s.at);
   return out;
 }
 
@@ -273,9 +279,8 @@ void TaskAllocator::attempt(Robot& r) {
 // at its last attempt has changed (a door opened, a robot moved away): its attempts start
 // over.
 void TaskAllocator::release_given_up(const msg::Bid& bid) {
-  if (config_.give_up_attempts == 0) return;
   for (Spot& s : spots_) {
-    if (s.attempts < config_.give_up_attempts) continue;
+    if (!is_given_up(s)) continue;
     for (std::size_t k = 0; k < bid.n_items; ++k) {
       const msg::BidItem& it = bid.items[k];
       if ((s.at - Vec2(it.x, it.y)).norm() <= config_.look_radius_m && it.gain > 2.0 * s.gain) {
@@ -430,7 +435,7 @@ bool TaskAllocator::check_explored(Nanos now) {
     any = true;
     if (r.active || !r.bid) return false;  // still working, or not yet reassessed since it arrived
     for (std::size_t k = 0; k < r.bid->n_items; ++k) {
-      if (r.bid->items[k].gain > config_.min_gain && !given_up(r.bid->items[k].x, r.bid->items[k].y)) return false;
+      if (has_gain(r.bid->items[k])) return false;
     }
   }
   if (!any) return false;

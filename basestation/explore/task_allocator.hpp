@@ -144,6 +144,7 @@ class TaskAllocator {
   void run_round(Nanos now);
   bool barred(std::uint16_t robot, double x, double y, Nanos now) const;
   bool given_up(double x, double y) const;
+  bool has_gain(const msg::BidItem& it) const;
   void attempt(Robot& r);
   void release_given_up(const msg::Bid& bid);
   bool check_explored(Nanos now);
@@ -157,7 +158,8 @@ class TaskAllocator {
     std::uint32_t attempts = 0;
     double gain = 0;  // the task's gain at the latest attempt
   };
-  std::vector<Spot> spots_;  // attempted frontier spots, look_radius_m apart (grows with the tasks: base side)
+  std::vector<Spot> spots_;
+  bool is_given_up(const Spot& s) const;  // attempted frontier spots, look_radius_m apart (grows with the tasks: base side)
   std::optional<Nanos> round_due_;
   bool full_round_ = false;  // every pool robot takes part, not only unassigned / new-bid ones
   bool explored_ = false;

@@ -93,6 +93,9 @@ BidStatus FrontierBidder::compute(const GridGeometry& g, const Cell* cells, cons
   const auto start = static_cast<std::uint32_t>(g.index(ri, rj));
   if (cells[start] == Cell::kObstacle) return BidStatus::kRobotInObstacle;
 
+  // At most kMaxWallGapCells: the wall-gap test's work per cell stays bounded whatever the
+  // map's resolution.
+  wall_gap_n_ = std::min(kMaxWallGapCells, static_cast<int>(std::floor(config_.wall_gap_m / g.resolution + 1e-9)));
   area_i0_ = area_j0_ = 0;
   area_i1_ = g.width - 1;
   area_j1_ = g.height - 1;
@@ -363,15 +366,14 @@ void FrontierBidder::measure_gain(const GridGeometry& g, const Cell* cells, Cand
   stats_.gain_cells_visited += tail;
 }
 
-// True when (i, j) lies in a run of at most n = floor(wall_gap_m / resolution) unknown
+// True when (i, j) lies in a run of at most n = wall_gap_n_ (floor(wall_gap_m / resolution)) unknown
 // cells closed by an obstacle cell at both ends, along a row, a column or a diagonal. At a
 // grazing angle the beams step along a wall further apart than a cell, so a wall seen from
 // afar keeps holes one or two cells wide; behind them lies the unknown outside the
 // building or inside a block, which no robot can see. Work: at most 4 · 2n cell reads,
 // n <= kMaxWallGapCells.
 bool FrontierBidder::in_wall_gap(const GridGeometry& g, const Cell* cells, int i, int j) const {
-  // At most kMaxWallGapCells: the work per cell stays bounded whatever the map's resolution.
-  const int n = std::min(kMaxWallGapCells, static_cast<int>(std::floor(config_.wall_gap_m / g.resolution + 1e-9)));
+  const int n = wall_gap_n_;
   if (n < 1) return false;
   // Steps from (i, j) along (di, dj) to the first obstacle over unknown cells only, at most
   // n; n + 1 when there is none (clear cell, map edge or too far).

@@ -121,6 +121,7 @@ class FrontierBidder {
   FrontierBidderConfig config_;
   BidStats stats_;
   int area_i0_ = 0, area_i1_ = 0, area_j0_ = 0, area_j1_ = 0;  // the area's cells in this map (inclusive)
+  int wall_gap_n_ = 0;  // the longest wall gap in cells on this map (compute() sets it)
   std::vector<std::uint8_t> flags_;        // per cell: kBlocked | kSettled | kNearKept | kFootprint | kOpen | kUnreachable | kClustered
   std::vector<double> cost_;               // path cost (m) from the robot's cell
   std::vector<std::uint32_t> heap_;        // Dijkstra's open set
