@@ -162,6 +162,7 @@ bool TaskAllocator::on_bid(const msg::Bid& bid, Nanos now) {
   r.bid_fresh = true;
   release_given_up(bid);
   if (!round_due_) round_due_ = now + config_.bid_wait;  // later bids join this round
+  frontier_bid_ = frontier_bid_ || bid.n_items > 0 || bid.n_unreachable > 0 || bid.unreachable_dropped > 0;
   if (explored_) {
     const bool gain = std::any_of(bid.items.begin(), bid.items.begin() + bid.n_items,
                                   [&](const msg::BidItem& it) { return has_gain(it); });
@@ -439,6 +440,7 @@ bool TaskAllocator::check_explored(Nanos now) {
     }
   }
   if (!any) return false;
+  if (!frontier_bid_) return false;  // no bid has shown a frontier yet: the robots' maps may hold no clear cell
   explored_ = true;
   ++counters_.explored_reports;
   for (auto& [id, r] : robots_) {

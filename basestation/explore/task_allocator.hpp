@@ -163,6 +163,11 @@ class TaskAllocator {
   std::optional<Nanos> round_due_;
   bool full_round_ = false;  // every pool robot takes part, not only unassigned / new-bid ones
   bool explored_ = false;
+  // Exploration ends only after some bid has shown a frontier (an item, with or without
+  // gain, or an unreachable cluster): at start-up the robots' first bids can be empty because
+  // their maps hold no clear cell yet (every cell still near p = 0.5), which is not an
+  // explored world.
+  bool frontier_bid_ = false;
   std::uint32_t next_task_id_ = 1, next_seq_ = 1;
   AllocatorCounters counters_;
 };

@@ -368,6 +368,38 @@ TEST(TaskAllocator, EndOfExplorationReportedOnceWhenNoBidHasGain) {
   EXPECT_EQ(out.size(), 2u);
 }
 
+// At start-up a robot's map may hold no clear cell yet (every cell near p = 0.5), so its
+// first bids are empty: that is not an explored world. The end waits until some bid has
+// shown a frontier, then follows the usual rule.
+TEST(TaskAllocator, NoEndBeforeAnyBidHasShownAFrontier) {
+  TaskAllocator a(test_config());
+  bool ended = false;
+  for (Nanos t = 0; t <= sec(30); t += sec(0.25)) {
+    if (t % sec(2) == 0) {
+      a.on_bid(bid(1, {}), t);
+      a.on_bid(bid(2, {}), t);
+    }
+    tick(a, t, &ended);
+    ASSERT_FALSE(ended) << "at " << nanos_to_seconds(t) << " s, before any frontier was bid";
+  }
+  EXPECT_FALSE(a.explored());
+  // A frontier appears, is reached, and the next bids hold none: now the world is explored.
+  a.on_bid(bid(1, {item(5, 0, 100, 0, {4, -1, 6, 1})}), sec(31));
+  tick(a, sec(31.5), &ended);
+  EXPECT_FALSE(a.explored());
+  a.on_robot_pose(1, Vec2(5, 0.1), sec(33));
+  tick(a, sec(33), &ended);
+  a.on_bid(bid(1, {}), sec(34));
+  a.on_bid(bid(2, {}), sec(34));
+  int reports = 0;
+  for (Nanos t = sec(34); t <= sec(40); t += sec(0.25)) {
+    tick(a, t, &ended);
+    reports += ended;
+  }
+  EXPECT_TRUE(a.explored());
+  EXPECT_EQ(reports, 1);
+}
+
 msg::UnreachableCluster cluster(double min_x, double min_y, double max_x, double max_y, std::uint32_t cells,
                                  msg::UnreachableKind kind) {
   return {(min_x + max_x) / 2, (min_y + max_y) / 2, min_x, min_y, max_x, max_y, cells, kind};
