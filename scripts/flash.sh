@@ -1,0 +1,172 @@
+#!/usr/bin/env bash
+# Writes a robot disk image to a card or disk (an SD card, an eMMC module in a USB
+# reader), safely, and checks what it wrote by reading it back (docs/flashing.md).
+#
+#   scripts/flash.sh --image robot.img --device /dev/sdX [options]
+#
+#   --image FILE       the raw disk image (not compressed: xz -dk robot.img.xz first)
+#   --device DEV       the whole card or disk (/dev/sdX, /dev/mmcblkN), never a partition
+#   --yes              do not ask (for scripts); every refusal below still applies
+#   --max-size SIZE    refuse a device larger than this (default 128G: a robot's card or
+#                      eMMC; a larger device is more likely a backup or system disk);
+#                      suffixes K, M, G, T (powers of 1024)
+#   --allow-large      write to a device larger than --max-size anyway
+#   --verify-only      write nothing: compare the device's first bytes with the image
+#
+# Refuses, before writing anything: a device that is not a block device, is a partition,
+# is read-only, is (or holds) the disk the running system is on, has a mounted file system
+# or active swap on it or on one of its partitions, is smaller than the image, or is larger
+# than --max-size; an image that is missing, empty, compressed or has no partition table.
+# Shows the device (model, size, partitions) and asks for its name to be typed back.
+# Writes with dd (progress on stderr), flushes, drops the device's cached pages, then reads
+# it back and compares it with the image byte for byte.
+# Exit status: 0 written and verified; 1 refused or aborted (nothing written); 2 a usage
+# error; 3 the write failed; 4 the read-back differs from the image.
+set -euo pipefail
+
+prog=flash
+die() { echo "$prog: $1" >&2; exit "${2:-1}"; }  # MESSAGE [EXIT-STATUS]
+usage() { sed -n '2,26p' "$0"; }
+
+image="" device="" yes=0 max_size=128G allow_large=0 verify_only=0
+while (($#)); do
+  case "$1" in
+    --image) image=${2:?--image needs a value}; shift 2 ;;
+    --device) device=${2:?--device needs a value}; shift 2 ;;
+    --yes) yes=1; shift ;;
+    --max-size) max_size=${2:?--max-size needs a value}; shift 2 ;;
+    --allow-large) allow_large=1; shift ;;
+    --verify-only) verify_only=1; shift ;;
+    -h|--help) usage; exit 0 ;;
+    *) echo "$prog: unknown option '$1' (try --help)" >&2; exit 2 ;;
+  esac
+done
+[[ -n "$image" ]] || { echo "$prog: --image is required (try --help)" >&2; exit 2; }
+[[ -n "$device" ]] || { echo "$prog: --device is required (try --help)" >&2; exit 2; }
+
+bytes_of() {  # SIZE with an optional K/M/G/T suffix -> bytes
+  local v=$1 n unit
+  [[ "$v" =~ ^([0-9]+)([KMGT]?)i?B?$ ]] || die "--max-size '$v': expected a number with an optional K, M, G or T" 2
+  n=${BASH_REMATCH[1]} unit=${BASH_REMATCH[2]}
+  case "$unit" in
+    K) echo $((n << 10)) ;; M) echo $((n << 20)) ;; G) echo $((n << 30)) ;; T) echo $((n << 40)) ;; *) echo "$n" ;;
+  esac
+}
+human() { numfmt --to=iec-i --suffix=B "$1"; }
+max_bytes=$(bytes_of "$max_size")
+
+# --- The image.
+[[ -e "$image" ]] || die "image '$image' does not exist"
+[[ -f "$image" ]] || die "image '$image' is not a regular file"
+[[ -r "$image" ]] || die "image '$image' is not readable"
+image_bytes=$(stat -c %s "$image")
+((image_bytes > 0)) || die "image '$image' is empty"
+magic=$(head -c 6 "$image" | od -An -tx1 | tr -d ' \n')
+case "$magic" in
+  fd377a585a00*) die "image '$image' is xz-compressed: decompress it first (xz -dk '$image')" ;;
+  28b52ffd*) die "image '$image' is zstd-compressed: decompress it first (zstd -d '$image')" ;;
+  1f8b*) die "image '$image' is gzip-compressed: decompress it first (gunzip -k '$image')" ;;
+esac
+((image_bytes % 512 == 0)) || die "image '$image' is $image_bytes bytes, not whole 512-byte sectors: not a disk image"
+# An MBR, or GPT's protective MBR, ends its first sector with 55 AA.
+[[ "$(dd if="$image" bs=1 skip=510 count=2 status=none | od -An -tx1 | tr -d ' \n')" == "55aa" ]] ||
+  die "image '$image' has no partition table (no 55 AA at byte 510): not a disk image"
+
+# --- The device.
+[[ -e "$device" ]] || die "device '$device' does not exist"
+[[ -b "$device" ]] || die "device '$device' is not a block device"
+device=$(readlink -f "$device")
+type=$(lsblk -dno TYPE "$device" 2>/dev/null | head -n1) || true
+case "$type" in
+  disk|loop) ;;
+  part) die "device '$device' is a partition: give the whole disk ($(lsblk -no PKNAME "$device" | sed 's|^|/dev/|'))" ;;
+  *) die "device '$device' is a '${type:-unknown}' device, not a disk: refusing (a card or disk is 'disk' in lsblk)" ;;
+esac
+[[ "$(blockdev --getro "$device")" == 0 ]] || die "device '$device' is read-only (a card's lock switch?)"
+
+# The disks under the running system: what its system mounts and swap live on, followed
+# down through partitions, LVM, LUKS and RAID (lsblk -s lists a device and what it is built on).
+system_mounts=${CAIRN_FLASH_SYSTEM_MOUNTS:-/ /boot /boot/efi /usr /var /home}  # a test names its own
+system_disks=()
+add_disks_under() {  # DEVICE: the disk(s) it is built on
+  local name t
+  while read -r name t; do
+    [[ "$t" == disk || "$t" == loop ]] && system_disks+=("$name")
+  done < <(lsblk -nrpso NAME,TYPE "$1" 2>/dev/null || true)
+}
+for m in $system_mounts; do
+  src=$(findmnt -nfo SOURCE --mountpoint "$m" 2>/dev/null || true)
+  [[ "$src" == /dev/* ]] && add_disks_under "${src%%[*}"
+done
+while read -r swap _; do
+  [[ "$swap" == /dev/* ]] && add_disks_under "$swap"
+done < <(tail -n +2 /proc/swaps 2>/dev/null || true)
+for d in "${system_disks[@]}"; do
+  [[ "$(readlink -f "$d")" == "$device" ]] && die "device '$device' holds the running system (its mounts: $system_mounts; and swap): refusing"
+done
+
+# Mounted file systems and active swap on the device or any of its partitions.
+mounted=$(lsblk -nrpo NAME,MOUNTPOINT "$device" | awk 'NF > 1 {print $1 " on " $2}')
+if [[ -n "$mounted" ]]; then
+  points=$(lsblk -nrpo MOUNTPOINT "$device" | awk 'NF' | paste -sd ' ')
+  die "device '$device' is in use: $(echo "$mounted" | paste -sd ';' | sed 's/;/; /g'); unmount it first: umount $points"
+fi
+if [[ -r /proc/swaps ]]; then
+  while read -r swap _; do
+    [[ "$swap" == /dev/* ]] || continue
+    for name in $(lsblk -nrpo NAME "$device"); do
+      [[ "$(readlink -f "$swap")" == "$name" ]] && die "device '$device' is in use: swap on $name (swapoff $name first)"
+    done
+  done < <(tail -n +2 /proc/swaps)
+fi
+
+device_bytes=$(blockdev --getsize64 "$device")
+((device_bytes >= image_bytes)) ||
+  die "device '$device' ($(human "$device_bytes")) is smaller than the image ($(human "$image_bytes"))"
+if ((device_bytes > max_bytes)) && ((!allow_large)); then
+  die "device '$device' is $(human "$device_bytes"), larger than --max-size $max_size: is it really the robot's card? (--allow-large writes anyway)"
+fi
+
+verify() {
+  echo "$prog: reading $(human "$image_bytes") back from $device"
+  blockdev --flushbufs "$device"
+  local out rc=0
+  # --flushbufs also drops the device's cached pages: what is read next comes from the medium.
+  out=$(dd if="$device" bs=4M iflag=count_bytes count="$image_bytes" status=progress | cmp - "$image" 2>&1) || rc=$?
+  if ((rc != 0)); then
+    [[ "$out" == *EOF* ]] && die "verify failed: $device returned fewer bytes than the image ($out)" 4
+    die "verify failed: $device differs from the image ($out)" 4
+  fi
+  echo "$prog: verified: the first $(human "$image_bytes") of $device equal $image"
+}
+
+if ((verify_only)); then
+  verify
+  exit 0
+fi
+
+# --- Show and ask.
+echo "$prog: about to overwrite $device with $image ($(human "$image_bytes")):"
+lsblk -o NAME,SIZE,TYPE,MODEL,SERIAL,TRAN,FSTYPE,LABEL "$device" | sed 's/^/  /'
+echo "$prog: everything on $device ($(human "$device_bytes")) will be lost."
+if ((!yes)); then
+  printf '%s: type the device name (%s) to write, anything else to stop: ' "$prog" "$device"
+  answer=""
+  read -r answer || true
+  [[ "$answer" == "$device" ]] || die "aborted: nothing written"
+fi
+
+# --- Write.
+start=$(date +%s.%N)
+echo "$prog: writing"
+if ! dd if="$image" of="$device" bs=4M iflag=fullblock conv=fsync status=progress; then
+  die "writing $device failed (see dd's message above); the card is now partly written" 3
+fi
+sync
+elapsed=$(echo "$(date +%s.%N) - $start" | bc)
+echo "$prog: wrote $(human "$image_bytes") in $(printf '%.1f' "$elapsed") s"
+verify
+# Let the kernel see the new partition table (a card reader may need a re-plug instead).
+partx -u "$device" 2>/dev/null || blockdev --rereadpt "$device" 2>/dev/null ||
+  echo "$prog: note: the kernel did not re-read the partition table; re-plug the card to see it"
+echo "$prog: done: $device holds $image"
