@@ -159,6 +159,9 @@ void read_explore(const ConfigSection& e, RobotExploreConfig* x) {
   }
   x->blocks.replan_after = seconds_key(e, "blocked_replan_after_s", x->blocks.replan_after, {0.1, 60.0});
   x->blocks.memory = seconds_key(e, "blocked_memory_s", x->blocks.memory, {0.0, 3600.0});
+  x->blocks.keep_right_m = e.number_or("blocked_keep_right_m", x->blocks.keep_right_m, {0.0, 5.0});
+  x->blocks.keep_right_memory =
+      seconds_key(e, "blocked_keep_right_s", x->blocks.keep_right_memory, {0.0, 3600.0});
 }
 
 RobotConfig read(const ConfigDocument& doc) {

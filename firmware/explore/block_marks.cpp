@@ -14,13 +14,16 @@ bool BlockMarks::on_safety(StopReason stop, const Vec2& field_nearest, const Pos
   if (last_ >= 0 && now - last_ < cfg_.replan_after) return false;
   last_ = now;
   const Vec2 at = transform_point(robot_global, field_nearest);
+  const Vec2 left(-std::sin(robot_global.theta), std::cos(robot_global.theta));
   for (Mark& m : marks_) {
     if (m.until >= now && (m.at - at).norm() < cfg_.radius_m) {
       m.until = now + cfg_.memory;  // held on by the same return: renewed
+      m.left = left;
+      m.barrier_until = now + cfg_.keep_right_memory;
       return true;
     }
   }
-  marks_[next_] = {at, now + cfg_.memory};
+  marks_[next_] = {at, left, now + cfg_.memory, now + cfg_.keep_right_memory};
   next_ = (next_ + 1) % kMarks;
   ++marked_;
   return true;
@@ -39,6 +42,16 @@ void BlockMarks::stamp(ClassGrid* grid, Nanos now) const {
         if (!g.contains(i, j)) continue;
         if ((i == ci && j == cj) || (g.center(i, j) - m.at).norm() <= r) grid->at(i, j) = Cell::kObstacle;
       }
+    }
+    if (cfg_.keep_right_m <= 0 || m.barrier_until < now) continue;
+    // The barrier, a line of cells (sampled every half cell: 8-connected, and the planner
+    // neither crosses an inflated cell nor cuts a blocked corner).
+    const int steps = static_cast<int>(std::ceil(2 * cfg_.keep_right_m / g.resolution));
+    for (int k = 0; k <= steps; ++k) {
+      const Vec2 p = m.at + (cfg_.keep_right_m * k / steps) * m.left;
+      const int i = static_cast<int>(std::floor((p.x() - g.origin_x) / g.resolution));
+      const int j = static_cast<int>(std::floor((p.y() - g.origin_y) / g.resolution));
+      if (g.contains(i, j)) grid->at(i, j) = Cell::kObstacle;
     }
   }
 }

@@ -5,6 +5,16 @@
 // not marked again), and the caller replans with the marks stamped into its classified
 // map. cairn-robot's RobotExplorer and cairn-sim's exploration driver both use it. Pure,
 // fixed size.
+//
+// Keep right: for `keep_right_memory` a mark also closes the robot's left of the return,
+// a barrier `keep_right_m` long from the return across the robot's heading at the time,
+// so the replanned path passes what holds it on the right. Two robots that meet head-on
+// are each held by the other; with a disc alone both replanned round the same side (the
+// shorter way, the same for both in a corridor), met again, and took 15-30 s to pass in
+// the office world's corridor. Keeping right, they pass on opposite sides. A robot whose
+// right is closed (a wall) finds no path and stands while the other passes; after
+// keep_right_memory (shorter than the base's no-progress timeout) it may pass on the left,
+// as it must round a static block open only there.
 #pragma once
 
 #include <array>
@@ -22,6 +32,8 @@ struct BlockMarksConfig {
   Nanos replan_after = 1 * kNanosPerSecond;
   Nanos memory = 20 * kNanosPerSecond;
   double radius_m = 0.15;
+  double keep_right_m = 1.0;  // 0: no barrier. About a robot's diameter plus its radius
+  Nanos keep_right_memory = 5 * kNanosPerSecond;
 };
 
 class BlockMarks {
@@ -32,14 +44,16 @@ class BlockMarks {
   /// The robot's stop reason this cycle and the return limiting its field (robot frame).
   /// True when a return was marked or renewed: the caller should replan now.
   bool on_safety(StopReason stop, const Vec2& field_nearest, const Pose2& robot_global, Nanos now);
-  /// Marks the live marks' cells as obstacles.
+  /// Marks the live marks' cells (and live keep-right barriers) as obstacles.
   void stamp(ClassGrid* grid, Nanos now) const;
   std::uint64_t marked() const { return marked_; }
 
  private:
   struct Mark {
     Vec2 at{0, 0};
-    Nanos until = -1;  // forgotten after (-1: empty)
+    Vec2 left{0, 0};           // unit, the robot's left when it was held (global frame)
+    Nanos until = -1;          // forgotten after (-1: empty)
+    Nanos barrier_until = -1;  // its keep-right barrier forgotten after
   };
   BlockMarksConfig cfg_;
   std::array<Mark, kMarks> marks_{};

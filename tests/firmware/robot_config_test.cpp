@@ -102,6 +102,20 @@ TEST(RobotConfig, TheExplorationAreaAndWallGapAreReadAndChecked) {
   EXPECT_NE(error_of(kDevices + "[explore]\nwall_gap_m = 2\n").find("explore.wall_gap_m"), std::string::npos);
 }
 
+TEST(RobotConfig, TheKeepRightBarrierIsReadAndChecked) {
+  const auto def = firmware::parse_robot_config(kDevices, "robot.toml");
+  EXPECT_DOUBLE_EQ(def.explore.blocks.keep_right_m, 1.0);
+  EXPECT_EQ(def.explore.blocks.keep_right_memory, 5 * kNanosPerSecond);
+  const auto set = firmware::parse_robot_config(
+      kDevices + "[explore]\nblocked_keep_right_m = 0\nblocked_keep_right_s = 2.5\n", "robot.toml");
+  EXPECT_DOUBLE_EQ(set.explore.blocks.keep_right_m, 0.0);
+  EXPECT_EQ(set.explore.blocks.keep_right_memory, 2500 * kNanosPerMilli);
+  EXPECT_NE(error_of(kDevices + "[explore]\nblocked_keep_right_m = 9\n").find("explore.blocked_keep_right_m"),
+            std::string::npos);
+  EXPECT_NE(error_of(kDevices + "[explore]\nblocked_keep_right_s = -1\n").find("explore.blocked_keep_right_s"),
+            std::string::npos);
+}
+
 TEST(RobotConfig, RefusesALocalMapWhoseWorkDoesNotFitTheRtPeriod) {
   // 1 cm cells passed the local map's own validation; the search alone is ~20 ms a scan.
   const std::string why = error_of(kDevices + "[mapping]\ngrid_resolution_m = 0.01\n");

@@ -2,12 +2,14 @@
 // bids every period from its global pose, plans the base's target around walls, replans
 // every period, stands when it cannot plan, and cuts a path to what a task holds.
 #include "firmware/robot_explorer.hpp"
+#include "firmware/explore/block_marks.hpp"
 
 #include <gtest/gtest.h>
 
 #include <array>
 #include <cmath>
 #include <functional>
+#include <numbers>
 
 namespace cairn::firmware {
 namespace {
@@ -202,6 +204,63 @@ TEST(RobotExplorer, HeldByTheProtectiveFieldItMarksTheBlockAndReplansRoundIt) {
   const Nanos later = t + cfg.blocks.memory + 3 * kNanosPerSecond;
   ASSERT_TRUE(ex.step(map, at, later, &bid, &route).route);
   EXPECT_FALSE(passes_north(route));
+}
+
+// Keep right: held by a return 0.45 m ahead, the robot marks a disc there and, for
+// keep_right_memory, a barrier keep_right_m long across its heading on its left, so the
+// replan passes the block on its right. Held again by the same return with a new heading,
+// the barrier turns with it and lasts again.
+TEST(BlockMarks, AMarkClosesTheRobotsLeftOfTheReturnForAWhile) {
+  explore::BlockMarksConfig cfg;
+  ASSERT_DOUBLE_EQ(cfg.keep_right_m, 1.0);
+  ASSERT_EQ(cfg.keep_right_memory, 5 * kNanosPerSecond);
+  explore::BlockMarks marks(cfg);
+  ClassGrid grid;
+  grid.geometry = GridGeometry{0.1, -3.0, -3.0, 60, 60};
+  auto fresh = [&] { grid.cells.assign(grid.geometry.cells(), Cell::kClear); };
+  auto at = [&](double x, double y) {
+    int i = 0, j = 0;
+    EXPECT_TRUE(grid.geometry.cell_of(x, y, &i, &j));
+    return grid.at(i, j);
+  };
+  const Pose2 east{0, 0, 0};
+  const Vec2 ahead(0.45, 0.0);
+  Nanos t = 0;
+  for (; t <= cfg.replan_after; t += 10 * kNanosPerMilli) marks.on_safety(StopReason::kProtectiveField, ahead, east, t);
+  ASSERT_EQ(marks.marked(), 1u);
+  fresh();
+  marks.stamp(&grid, t);
+  EXPECT_EQ(at(0.45, 0.0), Cell::kObstacle);   // the disc
+  EXPECT_EQ(at(0.45, 0.5), Cell::kObstacle);   // the barrier, north: the robot's left
+  EXPECT_EQ(at(0.45, 0.95), Cell::kObstacle);  // its far end
+  EXPECT_EQ(at(0.45, 1.3), Cell::kClear);      // beyond keep_right_m
+  EXPECT_EQ(at(0.45, -0.5), Cell::kClear);     // the right stays open
+  EXPECT_EQ(at(1.0, 0.5), Cell::kClear);       // a line, not a block
+  fresh();
+  marks.stamp(&grid, t + cfg.keep_right_memory + kNanosPerMilli);
+  EXPECT_EQ(at(0.45, 0.0), Cell::kObstacle) << "the disc lasts blocked_memory_s";
+  EXPECT_EQ(at(0.45, 0.5), Cell::kClear) << "the barrier only keep_right_memory";
+  // Held again by the same return (now on its right: it turned to face north): the barrier
+  // runs west from the return, the robot's left, and lasts again.
+  const Pose2 north{0, 0, std::numbers::pi / 2};
+  const Nanos again = t + cfg.keep_right_memory + 2 * kNanosPerMilli;
+  for (t = again; t <= again + 2 * cfg.replan_after; t += 10 * kNanosPerMilli)
+    marks.on_safety(StopReason::kProtectiveField, Vec2(0.0, -0.45), north, t);
+  EXPECT_EQ(marks.marked(), 1u) << "renewed, not marked again";
+  fresh();
+  marks.stamp(&grid, t);
+  EXPECT_EQ(at(0.45, 0.0), Cell::kObstacle);
+  EXPECT_EQ(at(-0.3, 0.0), Cell::kObstacle);  // west
+  EXPECT_EQ(at(1.0, 0.0), Cell::kClear);      // east: its right
+  EXPECT_EQ(at(0.45, 0.5), Cell::kClear);     // the old barrier is gone
+  // keep_right_m = 0: the disc alone, as before.
+  cfg.keep_right_m = 0;
+  explore::BlockMarks disc(cfg);
+  for (t = 0; t <= cfg.replan_after; t += 10 * kNanosPerMilli) disc.on_safety(StopReason::kProtectiveField, ahead, east, t);
+  fresh();
+  disc.stamp(&grid, t);
+  EXPECT_EQ(at(0.45, 0.0), Cell::kObstacle);
+  EXPECT_EQ(at(0.45, 0.5), Cell::kClear);
 }
 
 TEST(RobotExplorer, WithoutAMapItBidsNothingAndStandsOnATask) {

@@ -165,6 +165,57 @@ TEST(ExploreSim, AVisitIsWrittenTimeRobotXY) {
   }
 }
 
+// Two robots sent to each other's start along a 3 m corridor meet head-on, each held by
+// the other's body in its protective field. Keeping right (BlockMarks' barrier to the
+// robot's left of what holds it), they pass on opposite sides. With the disc alone
+// (keep_right_m = 0, the behaviour before) both replan round the same side and meet again.
+struct PassOutcome {
+  double first_close_s = -1;  // centres first within 1 m
+  double passed_s = -1;       // robot 1 first 0.6 m east of robot 2 (they started the other way round)
+  double closest_m = 1e9;     // centre to centre
+};
+
+PassOutcome corridor_pass(double keep_right_m) {
+  const std::string world = testing::TempDir() + "/corridor_pass.world";
+  {
+    std::FILE* f = std::fopen(world.c_str(), "w");
+    std::fputs("bounds 0 0 18 3\nbox 0 0 18 3\npole 4 0.4 0.05\npole 9 2.6 0.05\npole 14 0.4 0.05\n"
+               "start 1 2 1.4 0\nstart 2 16 1.6 3.14159\n",
+               f);
+    std::fclose(f);
+  }
+  sim::FleetSimConfig c = office_explore(3);
+  c.world_path = world;
+  c.duration_s = 70;
+  c.exploration.blocks.keep_right_m = keep_right_m;
+  c.exploration.visits = {sim::ScheduledVisit::parse("3:1:16:1.5"), sim::ScheduledVisit::parse("3:2:2:1.5")};
+  sim::FleetSim f(c);
+  f.run();
+  Vec2 at[2] = {Vec2::Zero(), Vec2::Zero()};
+  PassOutcome out;
+  for (const sim::RobotSample& r : f.samples()) {
+    at[r.robot - 1] = r.truth.translation();
+    if (r.robot != 2) continue;
+    const double t = nanos_to_seconds(r.t), d = (at[0] - at[1]).norm();
+    out.closest_m = std::min(out.closest_m, d);
+    if (out.first_close_s < 0 && d < 1.0) out.first_close_s = t;
+    if (out.passed_s < 0 && at[0].x() > at[1].x() + 0.6) out.passed_s = t;
+  }
+  return out;
+}
+
+TEST(ExploreSim, RobotsMeetingHeadOnInACorridorPassKeepingRight) {
+  const PassOutcome keep = corridor_pass(explore::BlockMarksConfig{}.keep_right_m);
+  const PassOutcome disc = corridor_pass(0.0);
+  std::printf("corridor: close at %.1f s, passed at %.1f s keeping right; close at %.1f s, passed at %.1f s with the disc "
+              "alone; closest %.2f / %.2f m\n",
+              keep.first_close_s, keep.passed_s, disc.first_close_s, disc.passed_s, keep.closest_m, disc.closest_m);
+  ASSERT_GT(keep.first_close_s, 0) << "the robots never met";
+  ASSERT_GT(keep.passed_s, 0) << "never passed";
+  EXPECT_LT(keep.passed_s - keep.first_close_s, 15.0);
+  EXPECT_GT(keep.closest_m, 0.6) << "bodies (0.3 m) touched";
+}
+
 TEST(ExploreSim, SameSeedSameRun) {
   const Outcome& a = first();
   const Outcome b = run(5);
