@@ -15,11 +15,14 @@
 #
 # Refuses, before writing anything: a device that is not a block device, is a partition,
 # is read-only, is (or holds) the disk the running system is on, has a mounted file system
-# or active swap on it or on one of its partitions, is smaller than the image, or is larger
-# than --max-size; an image that is missing, empty, compressed or has no partition table.
-# Shows the device (model, size, partitions) and asks for its name to be typed back.
-# Writes with dd (progress on stderr), flushes, drops the device's cached pages, then reads
-# it back and compares it with the image byte for byte.
+# or active swap on it or on one of its partitions, is held by the kernel for anything
+# else (an exclusive open fails: mounted in another mount namespace, an LVM, RAID, LUKS or
+# btrfs member), is smaller than the image, or is larger than --max-size; an image that is
+# missing, empty, compressed or has no partition table. Shows the device (model, size,
+# partitions) and asks for its name to be typed back; then checks it is still the same
+# device. Writes with dd through an exclusive open held for the whole write (progress on
+# stderr), flushes, drops the device's cached pages, then reads it back and compares it
+# with the image byte for byte.
 # Exit status: 0 written and verified; 1 refused or aborted (nothing written); 2 a usage
 # error; 3 the write failed; 4 the read-back differs from the image.
 set -euo pipefail
@@ -29,12 +32,13 @@ die() { echo "$prog: $1" >&2; exit "${2:-1}"; }  # MESSAGE [EXIT-STATUS]
 usage() { sed -n '2,26p' "$0"; }
 
 image="" device="" yes=0 max_size=128G allow_large=0 verify_only=0
+value() { [[ $# -ge 2 && -n "$2" ]] || { echo "$prog: $1 needs a value (try --help)" >&2; exit 2; }; }
 while (($#)); do
   case "$1" in
-    --image) image=${2:?--image needs a value}; shift 2 ;;
-    --device) device=${2:?--device needs a value}; shift 2 ;;
+    --image) value "$@"; image=$2; shift 2 ;;
+    --device) value "$@"; device=$2; shift 2 ;;
     --yes) yes=1; shift ;;
-    --max-size) max_size=${2:?--max-size needs a value}; shift 2 ;;
+    --max-size) value "$@"; max_size=$2; shift 2 ;;
     --allow-large) allow_large=1; shift ;;
     --verify-only) verify_only=1; shift ;;
     -h|--help) usage; exit 0 ;;
@@ -47,7 +51,7 @@ done
 bytes_of() {  # SIZE with an optional K/M/G/T suffix -> bytes
   local v=$1 n unit
   [[ "$v" =~ ^([0-9]+)([KMGT]?)i?B?$ ]] || die "--max-size '$v': expected a number with an optional K, M, G or T" 2
-  n=${BASH_REMATCH[1]} unit=${BASH_REMATCH[2]}
+  n=$((10#${BASH_REMATCH[1]})) unit=${BASH_REMATCH[2]}
   case "$unit" in
     K) echo $((n << 10)) ;; M) echo $((n << 20)) ;; G) echo $((n << 30)) ;; T) echo $((n << 40)) ;; *) echo "$n" ;;
   esac
@@ -79,14 +83,17 @@ device=$(readlink -f "$device")
 type=$(lsblk -dno TYPE "$device" 2>/dev/null | head -n1) || true
 case "$type" in
   disk|loop) ;;
-  part) die "device '$device' is a partition: give the whole disk ($(lsblk -no PKNAME "$device" | sed 's|^|/dev/|'))" ;;
+  part) die "device '$device' is a partition: give the whole disk ($(lsblk -dno PKNAME "$device" | head -n1 | sed 's|^|/dev/|'))" ;;
   *) die "device '$device' is a '${type:-unknown}' device, not a disk: refusing (a card or disk is 'disk' in lsblk)" ;;
 esac
-[[ "$(blockdev --getro "$device")" == 0 ]] || die "device '$device' is read-only (a card's lock switch?)"
+((verify_only)) || [[ "$(blockdev --getro "$device")" == 0 ]] || die "device '$device' is read-only (a card's lock switch?)"
 
-# The disks under the running system: what its system mounts and swap live on, followed
-# down through partitions, LVM, LUKS and RAID (lsblk -s lists a device and what it is built on).
-system_mounts=${CAIRN_FLASH_SYSTEM_MOUNTS:-/ /boot /boot/efi /usr /var /home}  # a test names its own
+# The disks under the running system: what its system mounts live on, followed down
+# through partitions, LVM, LUKS and RAID (lsblk -s lists a device and what it is built on).
+# Without a mount table every check below would pass blind: refuse instead.
+[[ -r /proc/self/mountinfo && -n "$(findmnt -no SOURCE --mountpoint / 2>/dev/null)" ]] ||
+  die "cannot read the mount table (/proc/self/mountinfo, findmnt /): refusing to guess which disks are in use"
+system_mounts="/ /boot /boot/efi /usr /var /home ${CAIRN_FLASH_SYSTEM_MOUNTS:-}"  # a test adds its own
 system_disks=()
 add_disks_under() {  # DEVICE: the disk(s) it is built on
   local name t
@@ -95,41 +102,44 @@ add_disks_under() {  # DEVICE: the disk(s) it is built on
   done < <(lsblk -nrpso NAME,TYPE "$1" 2>/dev/null || true)
 }
 for m in $system_mounts; do
-  src=$(findmnt -nfo SOURCE --mountpoint "$m" 2>/dev/null || true)
+  src=$(findmnt -nfo SOURCE --mountpoint "$m" 2>/dev/null || true)  # not a mount point: nothing to add
   [[ "$src" == /dev/* ]] && add_disks_under "${src%%[*}"
 done
-while read -r swap _; do
-  [[ "$swap" == /dev/* ]] && add_disks_under "$swap"
-done < <(tail -n +2 /proc/swaps 2>/dev/null || true)
 for d in "${system_disks[@]}"; do
-  [[ "$(readlink -f "$d")" == "$device" ]] && die "device '$device' holds the running system (its mounts: $system_mounts; and swap): refusing"
+  [[ "$(readlink -f "$d")" == "$device" ]] && die "device '$device' holds the running system (one of the mounts $system_mounts): refusing"
 done
 
 # Mounted file systems and active swap on the device or any of its partitions.
-mounted=$(lsblk -nrpo NAME,MOUNTPOINT "$device" | awk 'NF > 1 {print $1 " on " $2}')
+# (lsblk -r writes a space in a mount point as \x20: printf %b turns it back for the message.)
+tree=$(lsblk -nrpo NAME,MOUNTPOINT "$device") || die "lsblk cannot list '$device'"
+swaps=$(awk 'NF > 1 && $2 == "[SWAP]" {print $1}' <<<"$tree")
+[[ -z "$swaps" ]] || die "device '$device' is in use: swap on $(paste -sd ' ' <<<"$swaps"); swapoff $(paste -sd ' ' <<<"$swaps") first"
+mounted=$(awk 'NF > 1 {print $1 " on " $2}' <<<"$tree")
 if [[ -n "$mounted" ]]; then
-  points=$(lsblk -nrpo MOUNTPOINT "$device" | awk 'NF' | paste -sd ' ')
-  die "device '$device' is in use: $(echo "$mounted" | paste -sd ';' | sed 's/;/; /g'); unmount it first: umount $points"
+  points=$(awk 'NF > 1 {printf "%s\"%s\"", sep, $2; sep = " "}' <<<"$tree")
+  die "device '$device' is in use: $(printf '%b' "$(paste -sd ';' <<<"$mounted" | sed 's/;/; /g')"); unmount it first: umount $(printf '%b' "$points")"
 fi
-if [[ -r /proc/swaps ]]; then
-  while read -r swap _; do
-    [[ "$swap" == /dev/* ]] || continue
-    for name in $(lsblk -nrpo NAME "$device"); do
-      [[ "$(readlink -f "$swap")" == "$name" ]] && die "device '$device' is in use: swap on $name (swapoff $name first)"
-    done
-  done < <(tail -n +2 /proc/swaps)
-fi
+# What the mount table cannot show (another mount namespace, a container; LVM, RAID, LUKS,
+# btrfs or ZFS members): the kernel refuses an exclusive open of a block device in use.
+exclusive_ok() { perl -MFcntl -e 'sysopen(my $f, $ARGV[0], O_RDONLY | O_EXCL) or exit 1' "$1"; }
+exclusive_ok "$device" ||
+  die "device '$device' is in use: the kernel refuses an exclusive open (a file system mounted elsewhere, in another namespace or container, or a member of LVM, RAID, LUKS, btrfs or ZFS)"
+holders=$(shopt -s nullglob
+  for h in /sys/class/block/"${device#/dev/}"/holders/* /sys/class/block/"${device#/dev/}"/*/holders/*; do
+    basename "$h"
+  done | sort -u | paste -sd ' ')
+[[ -z "$holders" ]] || die "device '$device' is in use: held by $holders (device-mapper or RAID)"
 
 device_bytes=$(blockdev --getsize64 "$device")
 ((device_bytes >= image_bytes)) ||
   die "device '$device' ($(human "$device_bytes")) is smaller than the image ($(human "$image_bytes"))"
-if ((device_bytes > max_bytes)) && ((!allow_large)); then
+if ((device_bytes > max_bytes)) && ((!allow_large)) && ((!verify_only)); then
   die "device '$device' is $(human "$device_bytes"), larger than --max-size $max_size: is it really the robot's card? (--allow-large writes anyway)"
 fi
 
 verify() {
   echo "$prog: reading $(human "$image_bytes") back from $device"
-  blockdev --flushbufs "$device"
+  blockdev --flushbufs "$device" || die "cannot flush $device's cached pages (blockdev --flushbufs): not verified" 4
   local out rc=0
   # --flushbufs also drops the device's cached pages: what is read next comes from the medium.
   out=$(dd if="$device" bs=4M iflag=count_bytes count="$image_bytes" status=progress | cmp - "$image" 2>&1) || rc=$?
@@ -145,6 +155,9 @@ if ((verify_only)); then
   exit 0
 fi
 
+identity() { echo "$(stat -Lc '%t:%T' "$device" 2>/dev/null) $(blockdev --getsize64 "$device" 2>/dev/null) $(lsblk -dno SERIAL "$device" 2>/dev/null)"; }
+shown=$(identity)
+
 # --- Show and ask.
 echo "$prog: about to overwrite $device with $image ($(human "$image_bytes")):"
 lsblk -o NAME,SIZE,TYPE,MODEL,SERIAL,TRAN,FSTYPE,LABEL "$device" | sed 's/^/  /'
@@ -154,17 +167,24 @@ if ((!yes)); then
   answer=""
   read -r answer || true
   [[ "$answer" == "$device" ]] || die "aborted: nothing written"
+  # Minutes may have passed: the same card (numbers, size, serial), still not in use.
+  [[ "$(identity)" == "$shown" ]] || die "device '$device' changed while waiting for the answer (another card?): nothing written; run again"
+  tree=$(lsblk -nrpo NAME,MOUNTPOINT "$device") || die "lsblk cannot list '$device'"
+  [[ -z "$(awk 'NF > 1' <<<"$tree")" ]] || die "device '$device' was mounted while waiting for the answer: nothing written; unmount it and run again"
 fi
 
 # --- Write.
-start=$(date +%s.%N)
+start=${EPOCHREALTIME/[.,]/}
 echo "$prog: writing"
-if ! dd if="$image" of="$device" bs=4M iflag=fullblock conv=fsync status=progress; then
-  die "writing $device failed (see dd's message above); the card is now partly written" 3
+# dd writes to an exclusive descriptor held for the whole write: nothing can mount or claim
+# the device meanwhile, and if something did since the checks, the open fails (EBUSY).
+if ! perl -MFcntl -e 'sysopen(my $f, shift, O_WRONLY | O_EXCL) or die "cannot open it exclusively: $!\n";
+                      open(STDOUT, ">&", $f) or die "$!\n"; exec @ARGV or die "$!\n"' \
+     "$device" dd if="$image" bs=4M iflag=fullblock conv=fsync status=progress; then
+  die "writing $device failed (see the message above); the card may be partly written" 3
 fi
-sync
-elapsed=$(echo "$(date +%s.%N) - $start" | bc)
-echo "$prog: wrote $(human "$image_bytes") in $(printf '%.1f' "$elapsed") s"
+ms=$(( (${EPOCHREALTIME/[.,]/} - start) / 1000 ))
+echo "$prog: wrote $(human "$image_bytes") in $((ms / 1000)).$(( (ms % 1000) / 100 )) s"
 verify
 # Let the kernel see the new partition table (a card reader may need a re-plug instead).
 partx -u "$device" 2>/dev/null || blockdev --rereadpt "$device" 2>/dev/null ||

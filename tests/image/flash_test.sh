@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # scripts/flash.sh on loop devices the test makes (never a real disk): it writes and
 # verifies an image, asks first and stops on a wrong answer, and refuses what it must
-# refuse (a mounted device, the system's disk, a partition, a read-only or too large or
-# too small device, a missing, compressed or table-less image), writing nothing then.
+# refuse (a mounted device, also at a path with a space or in another mount namespace,
+# active swap, the system's disk, a partition, a read-only or too large or too small
+# device, a missing, empty, compressed or table-less image), writing nothing then.
 # --verify-only finds a byte changed on the card. Needs root and loop devices (losetup).
 #   flash_test.sh SOURCE_DIR
 set -euo pipefail
@@ -10,9 +11,12 @@ src=$(cd "$1" && pwd)
 flash="$src/scripts/flash.sh"
 work=$(mktemp -d)
 loops=()
-made_node=""
+made_node="" holder_pid="" swap_on=""
 cleanup() {
-  mountpoint -q "$work/mnt" 2>/dev/null && umount "$work/mnt"
+  set +e  # every step, whatever fails
+  [[ -n "$holder_pid" ]] && kill "$holder_pid" 2>/dev/null && wait "$holder_pid" 2>/dev/null
+  for m in "$work/mnt" "$work/mount point"; do mountpoint -q "$m" 2>/dev/null && { umount "$m" || umount -l "$m"; }; done
+  [[ -n "$swap_on" ]] && swapoff "$swap_on"
   for l in "${loops[@]}"; do losetup -d "$l" 2>/dev/null || true; done
   [[ -n "$made_node" ]] && rm -f "$made_node"
   rm -rf "$work"
@@ -67,7 +71,9 @@ pass "typing the device name writes and verifies the image"
 
 # --- --verify-only: equal now; one byte changed on the card is found, with its offset.
 "$flash" --verify-only --image "$img" --device "$dev" >/dev/null 2>&1 || fail "--verify-only failed on an intact card"
-printf '\x5a' | dd of="$dev" bs=1 seek=3000000 conv=notrunc,fsync status=none
+# The complement of the image's byte there: a changed byte whatever the random image holds.
+byte=$(od -An -tu1 -j 3000000 -N 1 "$img" | tr -d ' ')
+printf "\\$(printf '%03o' $((255 - byte)))" | dd of="$dev" bs=1 seek=3000000 conv=notrunc,fsync status=none
 rc=0
 out=$("$flash" --verify-only --image "$img" --device "$dev" 2>&1) || rc=$?
 ((rc == 4)) || fail "--verify-only on a changed card: exit $rc, expected 4: $out"
@@ -83,8 +89,7 @@ pass "--yes writes without asking"
 part="${dev}p1"
 if [[ ! -b "$part" && -r "/sys/class/block/${part#/dev/}/dev" ]]; then  # no udev here: make the node
   IFS=: read -r major minor <"/sys/class/block/${part#/dev/}/dev"
-  mknod "$part" b "$major" "$minor"
-  made_node="$part"
+  mknod "$part" b "$major" "$minor" 2>/dev/null && made_node="$part"  # (udev may have made it meanwhile)
 fi
 [[ -b "$part" ]] || fail "no partition device $part after writing the image"
 expect_refusal "a partition" "is a partition: give the whole disk \(${dev}\)" --image "$img" --device "$part" --yes
@@ -92,10 +97,34 @@ expect_refusal "a partition" "is a partition: give the whole disk \(${dev}\)" --
 mkfs.ext4 -q -F "$part"
 mkdir -p "$work/mnt"
 mount "$part" "$work/mnt"
-expect_refusal "a mounted device" "in use: ${part} on $work/mnt; unmount it first: umount $work/mnt" --image "$img" --device "$dev" --yes
+expect_refusal "a mounted device" "in use: ${part} on $work/mnt; unmount it first: umount \"$work/mnt\"" --image "$img" --device "$dev" --yes
 CAIRN_FLASH_SYSTEM_MOUNTS="$work/mnt" expect_refusal "the system's disk" "holds the running system" \
   --image "$img" --device "$dev" --yes
 umount "$work/mnt"
+mkdir -p "$work/mount point"
+mount "$part" "$work/mount point"
+expect_refusal "a device mounted at a path with a space" "umount \"$work/mount point\"" --image "$img" --device "$dev" --yes
+umount "$work/mount point"
+
+# Mounted in another mount namespace: invisible to this one's lsblk and findmnt (as from a
+# chroot or container); the kernel's exclusive open still refuses.
+mkdir -p "$work/elsewhere"
+unshare -m --propagation private sh -c "mount '$part' '$work/elsewhere' && touch '$work/held' && exec sleep 60" &
+holder_pid=$!
+for _ in $(seq 1 100); do [[ -e "$work/held" ]] && break; sleep 0.05; done
+[[ -e "$work/held" ]] || fail "could not mount the partition in another mount namespace"
+[[ -z "$(lsblk -nrpo MOUNTPOINT "$dev" | awk NF)" ]] || fail "the other namespace's mount is visible here"
+expect_refusal "a device mounted in another mount namespace" "refuses an exclusive open" --image "$img" --device "$dev" --yes
+kill "$holder_pid"; wait "$holder_pid" 2>/dev/null || true; holder_pid=""
+
+mkswap -q "$part" >/dev/null
+if swapon "$part" 2>/dev/null; then
+  swap_on=$part
+  expect_refusal "a device with active swap" "swap on ${part}; swapoff ${part} first" --image "$img" --device "$dev" --yes
+  swapoff "$part"; swap_on=""
+else
+  echo "note: swapon refused here (no swap support): the swap case is not checked"
+fi
 
 expect_refusal "a device over --max-size" "larger than --max-size 16M.*--allow-large" \
   --image "$img" --device "$dev" --yes --max-size 16M
@@ -119,11 +148,27 @@ printf '\x00\x00' | dd of="$work/noise.img" bs=1 seek=510 conv=notrunc status=no
 expect_refusal "an image without a partition table" "no partition table" --image "$work/noise.img" --device "$dev" --yes
 xz -k -0 -c "$img" >"$work/robot.img.xz"
 expect_refusal "a compressed image" "xz-compressed: decompress it first" --image "$work/robot.img.xz" --device "$dev" --yes
+gzip -c "$img" >"$work/robot.img.gz"
+expect_refusal "a gzip image" "gzip-compressed" --image "$work/robot.img.gz" --device "$dev" --yes
+: >"$work/empty.img"
+expect_refusal "an empty image" "is empty" --image "$work/empty.img" --device "$dev" --yes
+head -c 1000 "$img" >"$work/short.img"
+expect_refusal "an image of part of a sector" "not whole 512-byte sectors" --image "$work/short.img" --device "$dev" --yes
+
+# A /dev/disk/by-id style link to the card is followed, and the card written.
+ln -s "$dev" "$work/by-id-card"
+out=$("$flash" --image "$img" --device "$work/by-id-card" --yes 2>&1 </dev/null) || fail "through a link: $out"
+[[ "$out" == *"verified"*"$dev"* || "$out" == *"$dev"*"verified"* ]] || fail "the link was not resolved to $dev: $out"
+pass "a link to the card is resolved and written"
 
 # Usage errors: exit 2.
 rc=0; "$flash" --image "$img" >/dev/null 2>&1 || rc=$?
 ((rc == 2)) || fail "no --device: exit $rc, expected 2"
 rc=0; "$flash" --image "$img" --device "$dev" --max-size lots >/dev/null 2>&1 || rc=$?
 ((rc == 2)) || fail "--max-size lots: exit $rc, expected 2"
+rc=0; "$flash" --device "$dev" --image >/dev/null 2>&1 || rc=$?
+((rc == 2)) || fail "--image without a value: exit $rc, expected 2"
+out=$("$flash" --image "$img" --device "$dev" --yes --max-size 08M 2>&1 </dev/null) && fail "--max-size 08M wrote to a 24 MiB card"
+[[ "$out" == *"larger than --max-size 08M"* ]] || fail "--max-size 08M not read as 8 MiB: $out"
 pass "usage errors exit 2"
 echo "flash_test: all passed"
