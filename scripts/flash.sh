@@ -91,8 +91,9 @@ esac
 # The disks under the running system: what its system mounts live on, followed down
 # through partitions, LVM, LUKS and RAID (lsblk -s lists a device and what it is built on).
 # Without a mount table every check below would pass blind: refuse instead.
-[[ -r /proc/self/mountinfo && -n "$(findmnt -no SOURCE --mountpoint / 2>/dev/null)" ]] ||
-  die "cannot read the mount table (/proc/self/mountinfo, findmnt /): refusing to guess which disks are in use"
+# (In a chroot "/" need not be a mount point: the table is only required to be readable.)
+[[ -n "$(head -c 1 /proc/self/mountinfo 2>/dev/null)" ]] ||
+  die "cannot read the mount table (/proc/self/mountinfo; is /proc mounted?): refusing to guess which disks are in use"
 system_mounts="/ /boot /boot/efi /usr /var /home ${CAIRN_FLASH_SYSTEM_MOUNTS:-}"  # a test adds its own
 system_disks=()
 add_disks_under() {  # DEVICE: the disk(s) it is built on
