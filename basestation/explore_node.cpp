@@ -110,11 +110,14 @@ void ExploreNode::on_nav(std::uint16_t robot, std::uint8_t nav_state, std::uint3
 
 std::string ExploreNode::summary() const {
   const auto& a = allocator_.counters();
-  char line[360];
+  char line[420];
   std::snprintf(line, sizeof line,
                 "explore: %s; bids %llu (unlocalised %llu, rejected %llu), rounds %llu, assigned %llu, kept %llu, "
                 "idles %llu, timeouts %llu, stuck %llu, given up %llu, visits %llu (refused %llu), written %llu (failed %llu)",
-                allocator_.explored() ? "explored" : "exploring", static_cast<unsigned long long>(counters_.bids_taken),
+                allocator_.explored()         ? "explored"
+                : allocator_.frontier_seen() ? "exploring"
+                                             : "exploring (no bid has shown a frontier yet: the end waits for one)",
+                static_cast<unsigned long long>(counters_.bids_taken),
                 static_cast<unsigned long long>(counters_.bids_unlocalised),
                 static_cast<unsigned long long>(a.bids_rejected), static_cast<unsigned long long>(a.rounds),
                 static_cast<unsigned long long>(a.explore_assigned), static_cast<unsigned long long>(a.tasks_kept),

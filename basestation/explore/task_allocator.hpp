@@ -89,6 +89,9 @@ class TaskAllocator {
   bool tick(Nanos now, std::vector<msg::TaskAssignment>* out);
 
   bool explored() const { return explored_; }
+  /// Some bid has shown a frontier (an item, with or without gain, or an unreachable
+  /// cluster): until then exploration does not end (the robots' maps may be empty).
+  bool frontier_seen() const { return frontier_bid_; }
   /// The unreachable frontier in the robots' latest bids, merged across robots (largest
   /// first). What the end-of-exploration report lists.
   std::vector<UnreachableArea> unreachable() const;

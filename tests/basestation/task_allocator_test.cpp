@@ -383,6 +383,7 @@ TEST(TaskAllocator, NoEndBeforeAnyBidHasShownAFrontier) {
     ASSERT_FALSE(ended) << "at " << nanos_to_seconds(t) << " s, before any frontier was bid";
   }
   EXPECT_FALSE(a.explored());
+  EXPECT_FALSE(a.frontier_seen());
   // A frontier appears, is reached, and the next bids hold none: now the world is explored.
   a.on_bid(bid(1, {item(5, 0, 100, 0, {4, -1, 6, 1})}), sec(31));
   tick(a, sec(31.5), &ended);
@@ -393,6 +394,23 @@ TEST(TaskAllocator, NoEndBeforeAnyBidHasShownAFrontier) {
   a.on_bid(bid(2, {}), sec(34));
   int reports = 0;
   for (Nanos t = sec(34); t <= sec(40); t += sec(0.25)) {
+    tick(a, t, &ended);
+    reports += ended;
+  }
+  EXPECT_TRUE(a.explored());
+  EXPECT_EQ(reports, 1);
+}
+
+// A frontier without gain (an item at or below min_gain) is a frontier shown: the map
+// holds clear cells next to unknown ones. The end then follows the usual rule at once.
+TEST(TaskAllocator, AFrontierWithoutGainAlsoLetsExplorationEnd) {
+  TaskAllocator a(test_config());
+  bool ended = false;
+  int reports = 0;
+  a.on_bid(bid(1, {item(3, 0, 20, 0, {2, -1, 4, 1})}), 0);  // gain 20: not above min_gain
+  a.on_bid(bid(2, {}), 0);
+  EXPECT_TRUE(a.frontier_seen());
+  for (Nanos t = 0; t <= sec(2); t += sec(0.25)) {
     tick(a, t, &ended);
     reports += ended;
   }
