@@ -12,6 +12,7 @@ RobotExplorer::RobotExplorer(const RobotExploreConfig& config, std::uint16_t rob
       planner_(explore::sized(config.planner, max_cells)),
       marks_(config.blocks) {
   grid_.cells.reserve(max_cells);
+  plan_grid_.cells.reserve(max_cells);
   path_.reserve(1024);
 }
 
@@ -31,10 +32,17 @@ bool RobotExplorer::plan(const Pose2& robot_global, Nanos now, msg::TaskAssignme
   *route = task_;
   route->n_path = 0;
   ++counters_.plans;
-  if (have_grid_) marks_.stamp(&grid_, now);
+  // The marks go into a copy: stamped into grid_ they would pile up between two periods'
+  // classifications (an expired mark or an old barrier still closing the way).
+  if (have_grid_) {
+    plan_grid_.geometry = grid_.geometry;
+    plan_grid_.cells.assign(grid_.cells.begin(), grid_.cells.end());  // within the reserve: no allocation
+    marks_.stamp(&plan_grid_, now);
+  }
   const Vec2 goal(task_.target_x, task_.target_y);
-  const explore::PlanStatus s = have_grid_ ? planner_.plan(grid_.geometry, grid_.cells.data(), robot_global.translation(), goal, &path_)
-                                           : explore::PlanStatus::kBadMap;
+  const explore::PlanStatus s =
+      have_grid_ ? planner_.plan(plan_grid_.geometry, plan_grid_.cells.data(), robot_global.translation(), goal, &path_)
+                 : explore::PlanStatus::kBadMap;
   if (s != explore::PlanStatus::kOk) {
     // Stand: the base's monitor takes the task back when no progress follows.
     ++counters_.plan_failures;

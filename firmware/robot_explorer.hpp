@@ -67,7 +67,8 @@ class RobotExplorer {
   std::uint16_t robot_id_;
   explore::FrontierBidder bidder_;
   explore::GridPlanner planner_;
-  ClassGrid grid_;  // reserved to max_cells
+  ClassGrid grid_;       // reserved to max_cells
+  ClassGrid plan_grid_;  // grid_ with the block marks stamped, for one plan (reserved to max_cells)
   bool have_grid_ = false;
   std::vector<Vec2> path_;
   msg::TaskAssignment task_{};

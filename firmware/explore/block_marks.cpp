@@ -1,5 +1,6 @@
 #include "firmware/explore/block_marks.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace cairn::explore {
@@ -15,6 +16,7 @@ bool BlockMarks::on_safety(StopReason stop, const Vec2& field_nearest, const Pos
   last_ = now;
   const Vec2 at = transform_point(robot_global, field_nearest);
   const Vec2 left(-std::sin(robot_global.theta), std::cos(robot_global.theta));
+  if (!at.allFinite() || !left.allFinite()) return false;  // nothing to mark (a NaN would fill the ring)
   for (Mark& m : marks_) {
     if (m.until >= now && (m.at - at).norm() < cfg_.radius_m) {
       m.until = now + cfg_.memory;  // held on by the same return: renewed
@@ -29,16 +31,25 @@ bool BlockMarks::on_safety(StopReason stop, const Vec2& field_nearest, const Pos
   return true;
 }
 
+// A count of cells, computed in double and capped (a map's resolution comes over the
+// network: a tiny one must not make the loops below run for hours, nor overflow an int).
+static int capped_cells(double n, int cap) { return n >= 0 && n < cap ? static_cast<int>(n) : cap; }
+
 void BlockMarks::stamp(ClassGrid* grid, Nanos now) const {
   const GridGeometry& g = grid->geometry;
+  const int cap = g.width + g.height;  // no disc or line on the grid needs more cells across
   const double r = cfg_.radius_m;
-  const int reach = static_cast<int>(std::ceil(r / g.resolution));
+  const int reach = capped_cells(std::ceil(r / g.resolution), cap);
   for (const Mark& m : marks_) {
     if (m.until < now) continue;
-    const int ci = static_cast<int>(std::floor((m.at.x() - g.origin_x) / g.resolution));
-    const int cj = static_cast<int>(std::floor((m.at.y() - g.origin_y) / g.resolution));
-    for (int j = cj - reach; j <= cj + reach; ++j) {
-      for (int i = ci - reach; i <= ci + reach; ++i) {
+    // The mark's cell, clamped just outside the grid (a mark far off it touches nothing).
+    const auto cell = [&](double v, double origin, int n) {
+      const double c = std::floor((v - origin) / g.resolution);
+      return static_cast<int>(std::clamp(c, -1.0 - reach, static_cast<double>(n + reach)));
+    };
+    const int ci = cell(m.at.x(), g.origin_x, g.width), cj = cell(m.at.y(), g.origin_y, g.height);
+    for (int j = std::max(cj - reach, 0); j <= std::min(cj + reach, g.height - 1); ++j) {
+      for (int i = std::max(ci - reach, 0); i <= std::min(ci + reach, g.width - 1); ++i) {
         if (!g.contains(i, j)) continue;
         if ((i == ci && j == cj) || (g.center(i, j) - m.at).norm() <= r) grid->at(i, j) = Cell::kObstacle;
       }
@@ -46,12 +57,11 @@ void BlockMarks::stamp(ClassGrid* grid, Nanos now) const {
     if (cfg_.keep_right_m <= 0 || m.barrier_until < now) continue;
     // The barrier, a line of cells (sampled every half cell: 8-connected, and the planner
     // neither crosses an inflated cell nor cuts a blocked corner).
-    const int steps = static_cast<int>(std::ceil(2 * cfg_.keep_right_m / g.resolution));
+    const int steps = std::max(1, capped_cells(std::ceil(2 * cfg_.keep_right_m / g.resolution), 2 * cap));
     for (int k = 0; k <= steps; ++k) {
       const Vec2 p = m.at + (cfg_.keep_right_m * k / steps) * m.left;
-      const int i = static_cast<int>(std::floor((p.x() - g.origin_x) / g.resolution));
-      const int j = static_cast<int>(std::floor((p.y() - g.origin_y) / g.resolution));
-      if (g.contains(i, j)) grid->at(i, j) = Cell::kObstacle;
+      int i = 0, j = 0;
+      if (g.cell_of(p.x(), p.y(), &i, &j)) grid->at(i, j) = Cell::kObstacle;
     }
   }
 }

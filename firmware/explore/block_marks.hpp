@@ -13,8 +13,10 @@
 // shorter way, the same for both in a corridor), met again, and took 15-30 s to pass in
 // the office world's corridor. Keeping right, they pass on opposite sides. A robot whose
 // right is closed (a wall) finds no path and stands while the other passes; after
-// keep_right_memory (shorter than the base's no-progress timeout) it may pass on the left,
-// as it must round a static block open only there.
+// keep_right_memory it may pass on the left, as it must round a static block open only
+// there. Known costs (docs/explore.md, "Keep right"): cairn-robot reports a robot that
+// stands 5 s on a task stuck, so its task is taken back; a return at the robot's front
+// right (a door jamb) puts the barrier across its own way for keep_right_memory.
 #pragma once
 
 #include <array>

@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <numbers>
 
 namespace cairn::firmware {
@@ -261,6 +262,68 @@ TEST(BlockMarks, AMarkClosesTheRobotsLeftOfTheReturnForAWhile) {
   disc.stamp(&grid, t);
   EXPECT_EQ(at(0.45, 0.0), Cell::kObstacle);
   EXPECT_EQ(at(0.45, 0.5), Cell::kClear);
+}
+
+// The marks are stamped into a copy of the classified map for each plan: an expired mark
+// no longer closes the way at the next replan, even before the next period classifies the
+// map again (stamped into the map itself, marks piled up between periods).
+TEST(RobotExplorer, AnExpiredMarkNoLongerClosesTheWayBeforeTheNextPeriod) {
+  GlobalMap map(map_cfg(4));
+  fill(&map, 2, 2, two_gaps);
+  RobotExploreConfig cfg = explore_cfg();
+  cfg.bid_period = 600 * kNanosPerSecond;  // no period (and no new classification) in this test
+  cfg.blocks.memory = kNanosPerSecond;
+  cfg.blocks.keep_right_memory = kNanosPerSecond;
+  RobotExplorer ex(cfg, 5, map_cfg(4).max_cells);
+  msg::Bid bid;
+  msg::TaskAssignment route;
+  const Pose2 at{3.2, 2.1, 0};
+  (void)ex.step(map, at, 0, &bid, &route);
+  ex.on_task(task(21, msg::TaskKind::kGoto, 6.0, 2.1));
+  ASSERT_TRUE(ex.step(map, at, 10 * kNanosPerMilli, &bid, &route).route);
+  EXPECT_FALSE(passes_north(route));
+  Nanos t = 20 * kNanosPerMilli;
+  for (; ex.counters().blocked_marks == 0 && t < 3 * kNanosPerSecond; t += 10 * kNanosPerMilli)
+    ex.on_safety(StopReason::kProtectiveField, Vec2(0.45, 0.0), at, t);
+  ASSERT_EQ(ex.counters().blocked_marks, 1u);
+  ASSERT_TRUE(ex.step(map, at, t, &bid, &route).route);
+  EXPECT_TRUE(passes_north(route)) << "round the mark";
+  ex.on_safety(StopReason::kNone, Vec2(0.45, 0.0), at, t);
+  // The mark has expired; a new task (same target) is planned before any new period.
+  const Nanos later = t + 2 * kNanosPerSecond;
+  ex.on_task(task(22, msg::TaskKind::kGoto, 6.0, 2.1));
+  ASSERT_TRUE(ex.step(map, at, later, &bid, &route).route);
+  EXPECT_FALSE(passes_north(route)) << "the expired mark still closed the south gap";
+}
+
+// Held with a non-finite pose or return: nothing is marked (a NaN mark would never be
+// renewed, and would push real marks out of the ring).
+TEST(BlockMarks, NonFiniteInputsMarkNothing) {
+  explore::BlockMarksConfig cfg;
+  explore::BlockMarks marks(cfg);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (Nanos t = 0; t <= 3 * cfg.replan_after; t += 10 * kNanosPerMilli) {
+    marks.on_safety(StopReason::kProtectiveField, Vec2(nan, 0.0), Pose2{0, 0, 0}, t);
+    marks.on_safety(StopReason::kProtectiveField, Vec2(0.45, 0.0), Pose2{0, 0, std::numeric_limits<double>::infinity()}, t);
+  }
+  EXPECT_EQ(marks.marked(), 0u);
+}
+
+// A map's resolution comes from the network. A hostile tiny one must not make stamping
+// loop for hours (a 1e-7 m grid put a 0.15 m disc 1.5 million cells across: 10^13 steps):
+// the work is capped by the grid's own size.
+TEST(BlockMarks, StampingATinyResolutionGridIsBoundedByTheGrid) {
+  explore::BlockMarksConfig cfg;
+  explore::BlockMarks marks(cfg);
+  for (Nanos t = 0; t <= cfg.replan_after; t += 10 * kNanosPerMilli)
+    marks.on_safety(StopReason::kProtectiveField, Vec2(0.0, 0.0), Pose2{0, 0, 0}, t);
+  ASSERT_EQ(marks.marked(), 1u);
+  ClassGrid grid;
+  grid.geometry = GridGeometry{1e-7, -2e-6, -2e-6, 40, 40};
+  grid.cells.assign(grid.geometry.cells(), Cell::kClear);
+  marks.stamp(&grid, cfg.replan_after);
+  EXPECT_EQ(grid.at(20, 20), Cell::kObstacle);  // the whole 4 µm grid lies inside the 0.15 m disc
+  EXPECT_EQ(grid.at(0, 0), Cell::kObstacle);
 }
 
 TEST(RobotExplorer, WithoutAMapItBidsNothingAndStandsOnATask) {

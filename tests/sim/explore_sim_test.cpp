@@ -4,12 +4,15 @@
 // against walls and never touch each other (their protective fields; without them they
 // collide, and these tests fail), and the base's allocator keeps
 // the two robots on different frontiers (coordination), which the uncoordinated mode
-// does not. Capped at 120 simulated s for CI (three runs, about 25 s wall under nice).
+// does not. Capped at 120 simulated s for CI (three runs, about 25 s wall under nice), plus
+// a 70 s corridor run of two robots meeting head-on (about 4 s).
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <stdexcept>
+#include <string>
 
 #include "tools/sim/fleet_sim.hpp"
 
@@ -167,8 +170,10 @@ TEST(ExploreSim, AVisitIsWrittenTimeRobotXY) {
 
 // Two robots sent to each other's start along a 3 m corridor meet head-on, each held by
 // the other's body in its protective field. Keeping right (BlockMarks' barrier to the
-// robot's left of what holds it), they pass on opposite sides. With the disc alone
-// (keep_right_m = 0, the behaviour before) both replan round the same side and meet again.
+// robot's left of what holds it), they pass on opposite sides, 11.7 s after first coming
+// within 1 m. With the disc alone (keep_right_m = 0, the behaviour before) both replanned
+// round the same side, met again, and had not passed 70 s into the run (measured once with
+// corridor_pass(0.0); not run here, to keep the suite short).
 struct PassOutcome {
   double first_close_s = -1;  // centres first within 1 m
   double passed_s = -1;       // robot 1 first 0.6 m east of robot 2 (they started the other way round)
@@ -179,6 +184,7 @@ PassOutcome corridor_pass(double keep_right_m) {
   const std::string world = testing::TempDir() + "/corridor_pass.world";
   {
     std::FILE* f = std::fopen(world.c_str(), "w");
+    if (f == nullptr) throw std::runtime_error("cannot write " + world);
     std::fputs("bounds 0 0 18 3\nbox 0 0 18 3\npole 4 0.4 0.05\npole 9 2.6 0.05\npole 14 0.4 0.05\n"
                "start 1 2 1.4 0\nstart 2 16 1.6 3.14159\n",
                f);
@@ -206,10 +212,8 @@ PassOutcome corridor_pass(double keep_right_m) {
 
 TEST(ExploreSim, RobotsMeetingHeadOnInACorridorPassKeepingRight) {
   const PassOutcome keep = corridor_pass(explore::BlockMarksConfig{}.keep_right_m);
-  const PassOutcome disc = corridor_pass(0.0);
-  std::printf("corridor: close at %.1f s, passed at %.1f s keeping right; close at %.1f s, passed at %.1f s with the disc "
-              "alone; closest %.2f / %.2f m\n",
-              keep.first_close_s, keep.passed_s, disc.first_close_s, disc.passed_s, keep.closest_m, disc.closest_m);
+  std::printf("corridor: close at %.1f s, passed at %.1f s keeping right; closest %.2f m\n", keep.first_close_s,
+              keep.passed_s, keep.closest_m);
   ASSERT_GT(keep.first_close_s, 0) << "the robots never met";
   ASSERT_GT(keep.passed_s, 0) << "never passed";
   EXPECT_LT(keep.passed_s - keep.first_close_s, 15.0);
