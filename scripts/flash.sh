@@ -146,7 +146,10 @@ verify() {
   out=$(dd if="$device" bs=4M iflag=count_bytes count="$image_bytes" status=progress | cmp - "$image" 2>&1) || rc=$?
   if ((rc != 0)); then
     [[ "$out" == *EOF* ]] && die "verify failed: $device returned fewer bytes than the image ($out)" 4
-    die "verify failed: $device differs from the image ($out)" 4
+    # cmp says "byte N" or, in the C locale, "char N" (counting from 1).
+    local at
+    at=$(grep -oE '(byte|char) [0-9]+' <<<"$out" | grep -oE '[0-9]+' | head -n1) || true
+    die "verify failed: $device differs from the image at byte ${at:-?} (counting from 1; cmp: $out)" 4
   fi
   echo "$prog: verified: the first $(human "$image_bytes") of $device equal $image"
 }
