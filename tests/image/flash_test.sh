@@ -15,7 +15,7 @@ made_node="" holder_pid="" swap_on=""
 cleanup() {
   set +e  # every step, whatever fails
   [[ -n "$holder_pid" ]] && kill "$holder_pid" 2>/dev/null && wait "$holder_pid" 2>/dev/null
-  for m in "$work/mnt" "$work/mount point"; do mountpoint -q "$m" 2>/dev/null && { umount "$m" || umount -l "$m"; }; done
+  for m in "$work/mnt" "$work/mount point" "$work/ns"; do mountpoint -q "$m" 2>/dev/null && { umount "$m" || umount -l "$m"; }; done
   [[ -n "$swap_on" ]] && swapoff "$swap_on"
   for l in "${loops[@]}"; do losetup -d "$l" 2>/dev/null || true; done
   [[ -n "$made_node" ]] && rm -f "$made_node"
@@ -108,14 +108,21 @@ umount "$work/mount point"
 
 # Mounted in another mount namespace: invisible to this one's lsblk and findmnt (as from a
 # chroot or container); the kernel's exclusive open still refuses.
-mkdir -p "$work/elsewhere"
-unshare -m --propagation private sh -c "mount '$part' '$work/elsewhere' && touch '$work/held' && exec sleep 60" &
+# The mount point lies in a private tmpfs of the test's, so a mount made under it in the new
+# namespace does not propagate back (unshare's own --propagation needs / to be a mount
+# point, which it is not in a chroot).
+mkdir -p "$work/ns"
+mount -t tmpfs cairn-flash-test "$work/ns"
+mount --make-private "$work/ns"
+mkdir -p "$work/ns/elsewhere"
+unshare -m --propagation unchanged sh -c "mount '$part' '$work/ns/elsewhere' && touch '$work/held' && exec sleep 60" &
 holder_pid=$!
 for _ in $(seq 1 100); do [[ -e "$work/held" ]] && break; sleep 0.05; done
 [[ -e "$work/held" ]] || fail "could not mount the partition in another mount namespace"
 [[ -z "$(lsblk -nrpo MOUNTPOINT "$dev" | awk NF)" ]] || fail "the other namespace's mount is visible here"
 expect_refusal "a device mounted in another mount namespace" "refuses an exclusive open" --image "$img" --device "$dev" --yes
 kill "$holder_pid"; wait "$holder_pid" 2>/dev/null || true; holder_pid=""
+umount "$work/ns"
 
 mkswap -q "$part" >/dev/null
 if swapon "$part" 2>/dev/null; then
