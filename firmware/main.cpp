@@ -161,9 +161,12 @@ int run(const std::string& config_path, int id_override, const std::string& name
       nav.command(rt.local_pose, rt.v, &v, &w);
       const NavState was = nav_monitor.state();
       // Done with the path of the base's task (arrived; the base has not yet sent another):
-      // not stuck. A plan that failed leaves the task unfinished (the explorer stood it).
+      // not stuck. A plan that failed leaves the task unfinished (the explorer stood it);
+      // a robot that yields to keep right is not stuck either.
       const bool arrived = nav.task_id() == base_task && nav.finished();
-      const NavState ns = nav_monitor.update(base_task, base_task_moves && !arrived, rt.stop, rt.local_pose.translation(), now);
+      const bool yielding = explorer && explorer->yielding();
+      const NavState ns =
+          nav_monitor.update(base_task, base_task_moves && !arrived && !yielding, rt.stop, rt.local_pose.translation(), now);
       bridge.set_nav(ns, base_task);
       if (ns == NavState::kStuck && was != NavState::kStuck) {
         CAIRN_LOG_WARN("robot", "robot {} stuck on task {}: no progress for {:.1f} s (stop: {}); reported to the base", cfg.id,
@@ -179,6 +182,7 @@ int run(const std::string& config_path, int id_override, const std::string& name
           CAIRN_LOG_INFO("robot", "robot {} explore: bids {} (no frontier {}, failed {}), plans {} (failed {}, cut {}), blocks marked {}",
                          cfg.id, x.bids, x.bids_no_frontier, x.bids_failed, x.plans, x.plan_failures, x.paths_cut,
                          x.blocked_marks);
+          if (x.yields > 0) CAIRN_LOG_INFO("robot", "robot {} explore: stood {} times to keep right", cfg.id, x.yields);
         }
       }
     }

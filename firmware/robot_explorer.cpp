@@ -20,6 +20,8 @@ void RobotExplorer::on_task(const msg::TaskAssignment& task) {
   task_ = task;
   task_active_ = msg::task_moves(task.kind) && task.n_path == 0;  // a path from the base is followed as given
   task_new_ = task_active_;
+  yielding_ = false;
+  replan_at_ = -1;
 }
 
 void RobotExplorer::on_safety(StopReason stop, const Vec2& field_nearest, const Pose2& robot_global, Nanos now) {
@@ -34,15 +36,29 @@ bool RobotExplorer::plan(const Pose2& robot_global, Nanos now, msg::TaskAssignme
   ++counters_.plans;
   // The marks go into a copy: stamped into grid_ they would pile up between two periods'
   // classifications (an expired mark or an old barrier still closing the way).
+  const Vec2 goal(task_.target_x, task_.target_y);
+  explore::PlanStatus s = explore::PlanStatus::kBadMap;
+  yielding_ = false;
+  replan_at_ = -1;
   if (have_grid_) {
     plan_grid_.geometry = grid_.geometry;
     plan_grid_.cells.assign(grid_.cells.begin(), grid_.cells.end());  // within the reserve: no allocation
-    marks_.stamp(&plan_grid_, now);
+    const std::size_t barriers = marks_.stamp(&plan_grid_, now);
+    s = planner_.plan(plan_grid_.geometry, plan_grid_.cells.data(), robot_global.translation(), goal, &path_);
+    if (s != explore::PlanStatus::kOk && barriers > 0) {
+      // Closed by keep right alone, or a dead end? Plan again without the barriers.
+      plan_grid_.cells.assign(grid_.cells.begin(), grid_.cells.end());
+      (void)marks_.stamp(&plan_grid_, now, /*barriers=*/false);
+      yielding_ = planner_.plan(plan_grid_.geometry, plan_grid_.cells.data(), robot_global.translation(), goal,
+                                &path_) == explore::PlanStatus::kOk;
+      if (yielding_) {
+        ++counters_.yields;
+        replan_at_ = marks_.next_barrier_end(now);
+        route->kind = msg::TaskKind::kIdle;  // stand while the other passes
+        return false;
+      }
+    }
   }
-  const Vec2 goal(task_.target_x, task_.target_y);
-  const explore::PlanStatus s =
-      have_grid_ ? planner_.plan(plan_grid_.geometry, plan_grid_.cells.data(), robot_global.translation(), goal, &path_)
-                 : explore::PlanStatus::kBadMap;
   if (s != explore::PlanStatus::kOk) {
     // Stand: the base's monitor takes the task back when no progress follows.
     ++counters_.plan_failures;
@@ -75,7 +91,8 @@ RobotExplorer::Step RobotExplorer::step(const GlobalMap& map, const Pose2& robot
                                         msg::TaskAssignment* route) {
   Step out;
   const bool period = now >= next_period_;
-  if (!period && !task_new_) return out;
+  const bool barrier_ended = replan_at_ >= 0 && now > replan_at_;
+  if (!period && !task_new_ && !barrier_ended) return out;
   if (period) {
     next_period_ = now + config_.bid_period;
     have_grid_ = map.classify(&grid_);
@@ -93,7 +110,8 @@ RobotExplorer::Step RobotExplorer::step(const GlobalMap& map, const Pose2& robot
       }
     }
   }
-  if (task_active_ && (task_new_ || period)) {
+  if (barrier_ended && !task_active_) replan_at_ = -1;
+  if (task_active_ && (task_new_ || period || barrier_ended)) {
     task_new_ = false;
     (void)plan(robot_global, now, route);
     out.route = true;

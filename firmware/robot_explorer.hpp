@@ -33,6 +33,7 @@ struct RobotExploreCounters {
   std::uint64_t bids = 0, bids_no_frontier = 0, bids_failed = 0;  // failed: outside the map, in an obstacle
   std::uint64_t plans = 0, plan_failures = 0, paths_cut = 0;       // cut: longer than a TaskAssignment holds
   std::uint64_t blocked_marks = 0;  // returns that held the robot, marked into the plan's map
+  std::uint64_t yields = 0;         // plans that failed only for a keep-right barrier: the robot stood
 };
 
 class RobotExplorer {
@@ -57,6 +58,11 @@ class RobotExplorer {
   /// current one again every period.
   Step step(const GlobalMap& map, const Pose2& robot_global, Nanos now, msg::Bid* bid, msg::TaskAssignment* route);
 
+  /// The last plan failed only because a keep-right barrier closes the way (a plan without
+  /// barriers succeeds): the robot stands while the other passes, which is not being stuck
+  /// (cairn-robot keeps its NavMonitor's clock stopped). It replans when the barrier ends.
+  bool yielding() const { return yielding_; }
+
   const RobotExploreCounters& counters() const { return counters_; }
   const explore::BidStats& bid_stats() const { return bidder_.stats(); }
 
@@ -73,6 +79,8 @@ class RobotExplorer {
   std::vector<Vec2> path_;
   msg::TaskAssignment task_{};
   bool task_active_ = false, task_new_ = false;
+  bool yielding_ = false;
+  Nanos replan_at_ = -1;  // a barrier that made the robot yield ends (-1: none)
   Nanos next_period_ = 0;
   explore::BlockMarks marks_;
   std::uint32_t bid_seq_ = 0;

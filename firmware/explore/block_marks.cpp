@@ -31,16 +31,49 @@ bool BlockMarks::on_safety(StopReason stop, const Vec2& field_nearest, const Pos
   return true;
 }
 
+Nanos BlockMarks::next_barrier_end(Nanos now) const {
+  Nanos first = -1;
+  for (const Mark& m : marks_) {
+    if (m.until < now || m.barrier_until < now || cfg_.keep_right_m <= 0) continue;
+    if (first < 0 || m.barrier_until < first) first = m.barrier_until;
+  }
+  return first;
+}
+
 // A count of cells, computed in double and capped (a map's resolution comes over the
 // network: a tiny one must not make the loops below run for hours, nor overflow an int).
 static int capped_cells(double n, int cap) { return n >= 0 && n < cap ? static_cast<int>(n) : cap; }
 
-void BlockMarks::stamp(ClassGrid* grid, Nanos now) const {
+// An obstacle cell of `g` within `r` of `at` (cell centres; `at`'s own cell included).
+static bool on_map(const ClassGrid& grid, const Vec2& at, double r, int reach) {
+  const GridGeometry& g = grid.geometry;
+  int ci = 0, cj = 0;
+  if (!g.cell_of(at.x(), at.y(), &ci, &cj)) return false;  // off the map: not on it
+  for (int j = std::max(cj - reach, 0); j <= std::min(cj + reach, g.height - 1); ++j) {
+    for (int i = std::max(ci - reach, 0); i <= std::min(ci + reach, g.width - 1); ++i) {
+      if (grid.at(i, j) != Cell::kObstacle) continue;
+      if ((i == ci && j == cj) || (g.center(i, j) - at).norm() <= r) return true;
+    }
+  }
+  return false;
+}
+
+std::size_t BlockMarks::stamp(ClassGrid* grid, Nanos now, bool barriers) const {
   const GridGeometry& g = grid->geometry;
   const int cap = g.width + g.height;  // no disc or line on the grid needs more cells across
   const double r = cfg_.radius_m;
   const int reach = capped_cells(std::ceil(r / g.resolution), cap);
-  for (const Mark& m : marks_) {
+  // Which marks get a barrier, judged on the map before anything is stamped into it.
+  std::array<bool, kMarks> barrier{};
+  std::size_t n_barriers = 0;
+  for (std::size_t k = 0; k < kMarks; ++k) {
+    const Mark& m = marks_[k];
+    if (m.until < now || cfg_.keep_right_m <= 0 || m.barrier_until < now) continue;
+    barrier[k] = !on_map(*grid, m.at, r + g.resolution, reach + 1);
+    if (barrier[k]) ++n_barriers;
+  }
+  for (std::size_t k = 0; k < kMarks; ++k) {
+    const Mark& m = marks_[k];
     if (m.until < now) continue;
     // The mark's cell, clamped just outside the grid (a mark far off it touches nothing).
     const auto cell = [&](double v, double origin, int n) {
@@ -54,16 +87,17 @@ void BlockMarks::stamp(ClassGrid* grid, Nanos now) const {
         if ((i == ci && j == cj) || (g.center(i, j) - m.at).norm() <= r) grid->at(i, j) = Cell::kObstacle;
       }
     }
-    if (cfg_.keep_right_m <= 0 || m.barrier_until < now) continue;
+    if (!barriers || !barrier[k]) continue;
     // The barrier, a line of cells (sampled every half cell: 8-connected, and the planner
     // neither crosses an inflated cell nor cuts a blocked corner).
     const int steps = std::max(1, capped_cells(std::ceil(2 * cfg_.keep_right_m / g.resolution), 2 * cap));
-    for (int k = 0; k <= steps; ++k) {
-      const Vec2 p = m.at + (cfg_.keep_right_m * k / steps) * m.left;
+    for (int s = 0; s <= steps; ++s) {
+      const Vec2 p = m.at + (cfg_.keep_right_m * s / steps) * m.left;
       int i = 0, j = 0;
       if (g.cell_of(p.x(), p.y(), &i, &j)) grid->at(i, j) = Cell::kObstacle;
     }
   }
+  return n_barriers;
 }
 
 }  // namespace cairn::explore

@@ -6,17 +6,19 @@
 // map. cairn-robot's RobotExplorer and cairn-sim's exploration driver both use it. Pure,
 // fixed size.
 //
-// Keep right: for `keep_right_memory` a mark also closes the robot's left of the return,
-// a barrier `keep_right_m` long from the return across the robot's heading at the time,
-// so the replanned path passes what holds it on the right. Two robots that meet head-on
-// are each held by the other; with a disc alone both replanned round the same side (the
-// shorter way, the same for both in a corridor), met again, and took 15-30 s to pass in
-// the office world's corridor. Keeping right, they pass on opposite sides. A robot whose
-// right is closed (a wall) finds no path and stands while the other passes; after
-// keep_right_memory it may pass on the left, as it must round a static block open only
-// there. Known costs (docs/explore.md, "Keep right"): cairn-robot reports a robot that
-// stands 5 s on a task stuck, so its task is taken back; a return at the robot's front
-// right (a door jamb) puts the barrier across its own way for keep_right_memory.
+// Keep right: for `keep_right_memory` a mark on something the map does not hold (another
+// robot, a person: the mapper keeps robots out of the map) also closes the robot's left of
+// the return, a barrier `keep_right_m` long from the return across the robot's heading at
+// the time, so the replanned path passes what holds it on the right. Two robots that meet
+// head-on are each held by the other; with a disc alone both replanned round the same side
+// (the shorter way, the same for both in a corridor), met again, and took 15-30 s to pass
+// in the office world's corridor. Keeping right, they pass on opposite sides. A return on
+// the map (an obstacle cell within radius_m plus a cell of it: a wall, a door jamb) gets
+// the disc alone: the building does not move out of the way, and a barrier from a jamb at
+// the robot's front right closed its own way. A robot whose right is closed (a wall) finds
+// no path and yields, standing while the other passes (the caller tells a yield from a
+// dead end by planning again without barriers, stamp(..., false)); after
+// keep_right_memory it may pass on the left.
 #pragma once
 
 #include <array>
@@ -46,8 +48,12 @@ class BlockMarks {
   /// The robot's stop reason this cycle and the return limiting its field (robot frame).
   /// True when a return was marked or renewed: the caller should replan now.
   bool on_safety(StopReason stop, const Vec2& field_nearest, const Pose2& robot_global, Nanos now);
-  /// Marks the live marks' cells (and live keep-right barriers) as obstacles.
-  void stamp(ClassGrid* grid, Nanos now) const;
+  /// Marks the live marks' cells as obstacles, and with `barriers` the live keep-right
+  /// barriers of marks not on the map (judged on `grid` as given). Returns the barriers
+  /// stamped (or that would have been, without `barriers`).
+  std::size_t stamp(ClassGrid* grid, Nanos now, bool barriers = true) const;
+  /// When the first live keep-right barrier ends (-1: none is live).
+  Nanos next_barrier_end(Nanos now) const;
   std::uint64_t marked() const { return marked_; }
 
  private:

@@ -264,6 +264,105 @@ TEST(BlockMarks, AMarkClosesTheRobotsLeftOfTheReturnForAWhile) {
   EXPECT_EQ(at(0.45, 0.5), Cell::kClear);
 }
 
+// Keep right is for what the map does not hold (another robot, a person): a return on a
+// mapped obstacle (a wall, a door jamb at the robot's front right) gets the disc alone, so
+// its barrier no longer closes the robot's own way. Judged mark by mark, on the map as
+// given; stamp(..., false) leaves the barriers out but still counts them.
+TEST(BlockMarks, AReturnOnTheMapGetsNoBarrier) {
+  explore::BlockMarks marks(explore::BlockMarksConfig{});
+  ClassGrid grid;
+  grid.geometry = GridGeometry{0.1, -3.0, -3.0, 60, 60};
+  auto set = [&](double x, double y, Cell c) {
+    int i = 0, j = 0;
+    ASSERT_TRUE(grid.geometry.cell_of(x, y, &i, &j));
+    grid.at(i, j) = c;
+  };
+  auto at = [&](double x, double y) {
+    int i = 0, j = 0;
+    EXPECT_TRUE(grid.geometry.cell_of(x, y, &i, &j));
+    return grid.at(i, j);
+  };
+  auto jamb = [&] {  // the jamb's cells, 0.3 m beyond the return 0.45 m ahead
+    grid.cells.assign(grid.geometry.cells(), Cell::kClear);
+    set(0.75, 0.0, Cell::kObstacle);
+    set(0.75, -0.1, Cell::kObstacle);
+  };
+  const Pose2 east{0, 0, 0};
+  Nanos t = 0;
+  for (; t <= kNanosPerSecond; t += 10 * kNanosPerMilli) marks.on_safety(StopReason::kProtectiveField, Vec2(0.45, 0.0), east, t);
+  ASSERT_EQ(marks.marked(), 1u);
+  jamb();
+  EXPECT_EQ(marks.stamp(&grid, t), 1u) << "0.3 m from the jamb: not on the map";
+  EXPECT_EQ(at(0.45, 0.5), Cell::kObstacle);
+  // The same return with the jamb under it: the disc, no barrier.
+  jamb();
+  set(0.45, 0.0, Cell::kObstacle);
+  EXPECT_EQ(marks.stamp(&grid, t), 0u);
+  EXPECT_EQ(at(0.35, 0.0), Cell::kObstacle) << "the disc";
+  EXPECT_EQ(at(0.45, 0.5), Cell::kClear) << "no barrier from a return on the map";
+  // One cell off the obstacle (returns fall on either side of a cell's edge): on the map.
+  jamb();
+  set(0.55, 0.0, Cell::kObstacle);
+  EXPECT_EQ(marks.stamp(&grid, t), 0u);
+  EXPECT_EQ(at(0.45, 0.5), Cell::kClear);
+  // Without barriers: the disc alone, the barrier still counted (the caller's yield test).
+  jamb();
+  EXPECT_EQ(marks.stamp(&grid, t, /*barriers=*/false), 1u);
+  EXPECT_EQ(at(0.45, 0.0), Cell::kObstacle);
+  EXPECT_EQ(at(0.45, 0.5), Cell::kClear);
+  EXPECT_EQ(marks.next_barrier_end(t), kNanosPerSecond + explore::BlockMarksConfig{}.keep_right_memory);
+  EXPECT_EQ(marks.next_barrier_end(t + explore::BlockMarksConfig{}.keep_right_memory), -1);
+}
+
+// A corridor 1.8 m wide (y in [1, 2.8]) from x = 0.7 to 9; beyond, nothing is known.
+std::uint8_t corridor(double x, double y) {
+  if (x > 9.0) return kMapTileUnknown;
+  return x < 0.7 || y < 1.0 || y > 2.8 ? 100 : 0;
+}
+
+// Keep right where the right is a wall: the robot hugs the corridor's south wall and
+// another robot holds it head-on. The barrier closes its left, the wall its right: it
+// yields (stands, reported as yielding, not as a failed plan, so cairn-robot does not
+// report it stuck) and replans when the barrier ends, before any period, round the held
+// return's north side. Before, it stood with a failed plan until the next period.
+TEST(RobotExplorer, ARobotWhoseRightIsClosedYieldsAndGoesOnWhenTheBarrierEnds) {
+  GlobalMap map(map_cfg(4));
+  fill(&map, 2, 2, corridor);
+  RobotExploreConfig cfg = explore_cfg();
+  cfg.bid_period = 600 * kNanosPerSecond;  // no period in this test
+  RobotExplorer ex(cfg, 5, map_cfg(4).max_cells);
+  msg::Bid bid;
+  msg::TaskAssignment route;
+  const Pose2 at{2.0, 1.4, 0};
+  (void)ex.step(map, at, 0, &bid, &route);
+  ex.on_task(task(31, msg::TaskKind::kGoto, 6.0, 1.9));
+  ASSERT_TRUE(ex.step(map, at, 10 * kNanosPerMilli, &bid, &route).route);
+  ASSERT_EQ(route.kind, msg::TaskKind::kGoto);
+  EXPECT_FALSE(ex.yielding());
+  Nanos t = 20 * kNanosPerMilli;
+  for (; ex.counters().blocked_marks == 0 && t < 3 * kNanosPerSecond; t += 10 * kNanosPerMilli)
+    ex.on_safety(StopReason::kProtectiveField, Vec2(0.45, 0.0), at, t);
+  ASSERT_EQ(ex.counters().blocked_marks, 1u);
+  const Nanos marked = t - 10 * kNanosPerMilli;
+  ASSERT_TRUE(ex.step(map, at, t, &bid, &route).route);
+  EXPECT_EQ(route.kind, msg::TaskKind::kIdle) << "stands while the other passes";
+  EXPECT_TRUE(ex.yielding());
+  EXPECT_EQ(ex.counters().yields, 1u);
+  EXPECT_EQ(ex.counters().plan_failures, 0u);
+  ex.on_safety(StopReason::kNone, Vec2(0.45, 0.0), at, t);
+  const Nanos ends = marked + cfg.blocks.keep_right_memory;
+  EXPECT_FALSE(ex.step(map, at, ends - 10 * kNanosPerMilli, &bid, &route).route) << "no replan while the barrier lasts";
+  ASSERT_TRUE(ex.step(map, at, ends + 10 * kNanosPerMilli, &bid, &route).route) << "replanned when the barrier ended";
+  EXPECT_EQ(route.kind, msg::TaskKind::kGoto);
+  EXPECT_FALSE(ex.yielding());
+  ASSERT_GE(route.n_path, 3);
+  bool north = false;  // round the disc (it lasts blocks.memory), on the robot's left now
+  for (std::size_t i = 0; i < route.n_path; ++i) {
+    if (std::abs(route.path_xy[2 * i] - 2.45) < 0.2) north = north || route.path_xy[2 * i + 1] > 1.75;
+  }
+  EXPECT_TRUE(north);
+}
+
 // The marks are stamped into a copy of the classified map for each plan: an expired mark
 // no longer closes the way at the next replan, even before the next period classifies the
 // map again (stamped into the map itself, marks piled up between periods).

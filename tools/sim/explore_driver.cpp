@@ -93,9 +93,22 @@ void ExploreDriver::plan_for(std::size_t index, const RobotView& r, std::vector<
   ++counters_.plans;
   // What has held this robot (BlockMarks) is an obstacle in its plan only, as in cairn-robot.
   marked_ = grid_;
-  marks_[index].stamp(&marked_, now_);
+  const std::size_t barriers = marks_[index].stamp(&marked_, now_);
   const explore::PlanStatus s =
       planner_.plan(marked_.geometry, marked_.cells.data(), r.global.translation(), task->target, &path_);
+  replan_at_[index] = -1;
+  if (s != explore::PlanStatus::kOk && barriers > 0) {
+    // As cairn-robot's RobotExplorer: closed by keep right alone, the robot yields (stands
+    // until the barrier ends, then replans); a dead end also without barriers fails.
+    marked_ = grid_;
+    (void)marks_[index].stamp(&marked_, now_, /*barriers=*/false);
+    if (planner_.plan(marked_.geometry, marked_.cells.data(), r.global.translation(), task->target, &path_) ==
+        explore::PlanStatus::kOk) {
+      ++counters_.yields;
+      replan_at_[index] = marks_[index].next_barrier_end(now_);
+      return;
+    }
+  }
   if (s != explore::PlanStatus::kOk) {
     // The robot stands; the allocator's monitor takes the task back after its timeout.
     ++counters_.plan_failures;
@@ -111,6 +124,7 @@ bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, boo
     bumps_.resize(robots.size(), 0);
     nav_.resize(robots.size(), firmware::NavMonitor(config_.nav_monitor));
     marks_.resize(robots.size(), explore::BlockMarks(config_.blocks));
+    replan_at_.resize(robots.size(), -1);
   }
   now_ = now;
   std::vector<bool> held(robots.size(), false);  // marked what holds it: replan below
@@ -173,7 +187,8 @@ bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, boo
     const auto task = allocator_.task(robots[k].id);
     if (!task || !task->active || !msg::task_moves(task->kind)) continue;
     const bool bumped = robots[k].bumps != bumps_[k];
-    if (!bid_now && !bumped && !held[k]) continue;
+    const bool barrier_ended = replan_at_[k] >= 0 && now > replan_at_[k];
+    if (!bid_now && !bumped && !held[k] && !barrier_ended) continue;
     if (bumped) ++counters_.replans_after_bump;
     plan_for(k, robots[k], orders, bumped);
   }

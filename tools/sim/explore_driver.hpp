@@ -67,6 +67,7 @@ struct ExploreCounters {
   std::uint64_t visits_taken = 0, visits_refused = 0;  // scheduled visits the base's checks passed / refused
   std::uint64_t stuck_reports = 0;  // robots that reported themselves stuck (each report once per episode)
   std::uint64_t blocks_marked = 0;  // returns that held a robot, marked (or renewed) into its plans
+  std::uint64_t yields = 0;         // plans that failed only for a keep-right barrier: the robot stood
 };
 
 class ExploreDriver {
@@ -127,6 +128,7 @@ class ExploreDriver {
   std::vector<std::uint64_t> bumps_;     // per robot index: bumps at the last plan
   std::vector<firmware::NavMonitor> nav_;  // per robot index: its stuck report
   std::vector<explore::BlockMarks> marks_;  // per robot index: what has held it
+  std::vector<Nanos> replan_at_;             // per robot index: the barrier it yields to ends (-1: none)
   ClassGrid marked_;                         // grid_ with one robot's marks, for its plan
   Nanos now_ = 0;
   std::vector<msg::TaskAssignment> assignments_;

@@ -119,6 +119,7 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                       {"plan_failures", d.plan_failures},
                       {"replans_after_bump", d.replans_after_bump},
                       {"blocks_marked", d.blocks_marked},
+                      {"yields", d.yields},
                       {"periods_on_distinct_frontiers", d.periods_on_distinct_frontiers},
                       {"visits_taken", d.visits_taken},
                       {"visits_refused", d.visits_refused}}}};
