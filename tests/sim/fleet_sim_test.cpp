@@ -5,7 +5,9 @@
 
 #include <cstring>
 
+#include "hil/world/world.hpp"
 #include "tools/sim/fleet_sim.hpp"
+#include "tools/sim/sim_robot.hpp"
 
 namespace cairn {
 namespace {
@@ -206,6 +208,47 @@ TEST(FleetSim, InASharedWorldRobotsCollideInsteadOfPassingThrough) {
   EXPECT_GT(bumps, 0u);
   EXPECT_GT(closest_approach(guarded), body + 0.02);
   EXPECT_EQ(guarded_bumps, 0u);
+}
+
+struct NoOutputs : firmware::RobotOutputs {
+  void odometry(const msg::OdometryIncrement&) override {}
+  void laser(const msg::LaserScan&) override {}
+  void features(const msg::FeatureObservations&) override {}
+};
+
+// cairn-sim's stand-in recovery backs a robot off for a while after a bump. A back-off
+// asked for while one runs (the robot bumped into what is behind it) ends it: restarting
+// it pushed the robot on backwards into a wall for 20 s in one of world D's runs.
+TEST(SimRobot, ABumpWhileBackingOffEndsTheBackOff) {
+  hil::World world = hil::World::parse("bounds 0 0 10 10\nbox 0 0 10 10\nstart 1 5 5 0\n", "room");
+  sim::SimRobotConfig rc;
+  rc.start = Pose2{5, 5, 0};
+  rc.scripted = false;
+  rc.slip_sigma = 0;
+  sim::SimRobot robot(rc, &world);
+  NoOutputs out;
+  const Nanos dt = 5 * kNanosPerMilli, back_off = 1500 * kNanosPerMilli;
+  Nanos now = 0;
+  auto run_until = [&](Nanos until) {
+    for (; now < until; now += dt) {
+      if (now > 0) robot.physics(now - dt, dt);
+      robot.tick(now, out);
+    }
+  };
+  run_until(kNanosPerSecond);  // settled, standing
+  const double x0 = robot.truth().x;
+  robot.set_path({}, now, back_off, 0.15);
+  run_until(now + 500 * kNanosPerMilli);
+  const double x1 = robot.truth().x;
+  EXPECT_LT(x1, x0 - 0.03) << "backing off (west)";
+  robot.set_path({}, now, back_off, 0.15);  // bumped while backing off
+  run_until(now + kNanosPerSecond);
+  EXPECT_NEAR(robot.truth().x, x1, 0.03) << "the back-off ended: the robot stands on its empty path";
+  // A back-off asked for when none runs starts one, as before.
+  const double x2 = robot.truth().x;
+  robot.set_path({}, now, back_off, 0.15);
+  run_until(now + kNanosPerSecond);
+  EXPECT_LT(robot.truth().x, x2 - 0.08);
 }
 
 }  // namespace

@@ -125,7 +125,7 @@ void FleetSim::explore_step() {
     const Pose2 to_local = inverse(corrections_[o.index]);
     for (Vec2& p : o.global_path) p = transform_point(to_local, p);
     const ExploreConfig& ec = explore_->config();
-    robots_[o.index]->set_path(std::move(o.global_path), o.back_off ? now_ + ec.back_off : 0, ec.back_off_speed);
+    robots_[o.index]->set_path(std::move(o.global_path), now_, o.back_off ? ec.back_off : 0, ec.back_off_speed);
   }
 }
 

@@ -43,8 +43,9 @@ SimRobot::SimRobot(const SimRobotConfig& cfg, hil::World* world)
   body_->set_wheel_scale(cfg.wheel_scale_left, cfg.wheel_scale_right);
 }
 
-void SimRobot::set_path(std::vector<Vec2> local_waypoints, Nanos back_off_until, double back_off_speed) {
-  back_off_until_ = back_off_until;
+void SimRobot::set_path(std::vector<Vec2> local_waypoints, Nanos now, Nanos back_off, double back_off_speed) {
+  const bool backing_off = now < back_off_until_;
+  back_off_until_ = back_off > 0 && !backing_off ? now + back_off : 0;
   back_off_speed_ = back_off_speed;
   firmware::FollowerConfig f = cfg_.follower;
   f.loop = false;

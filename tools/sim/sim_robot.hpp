@@ -45,9 +45,11 @@ class SimRobot {
 
   /// Exploration: follow these waypoints (the robot's local frame) from now on, replacing
   /// the current path; an empty path stops the robot. Called between steps only.
-  /// Before following it, back straight off at `back_off_speed` until `back_off_until`
-  /// (0: at once).
-  void set_path(std::vector<Vec2> local_waypoints, Nanos back_off_until = 0, double back_off_speed = 0);
+  /// Before following it, back straight off at `back_off_speed` for `back_off` from `now`
+  /// (0: at once). A new path ends a running back-off, and so does one asked for while it
+  /// runs: the robot bumped while backing off, into what is behind it, and restarting the
+  /// back-off pushed it on into that for as long as it bumped (20 s in one of world D's runs).
+  void set_path(std::vector<Vec2> local_waypoints, Nanos now = 0, Nanos back_off = 0, double back_off_speed = 0);
   /// The current path is finished (or there is none).
   bool path_done() const { return follower_.done(); }
 
