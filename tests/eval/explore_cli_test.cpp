@@ -140,5 +140,34 @@ TEST(ExploreCli, RefusesRandomMapsOfAWorldWithoutRandomObstacles) {
   fs::remove_all(out);
 }
 
+// scripts/explore-tune.sh chooses the allocator's exchange rate on held-out worlds: their
+// random maps are not the grid's (seeds 1042.. and 1007.., the grid's 42.. and 7..), and
+// the rate given is the runs' own, recorded in the summary; a negative rate is refused.
+TEST(ExploreCli, TuningRunsOnHeldOutMapsWithTheRateGiven) {
+  const fs::path out = fresh_dir("tune");
+  std::string log;
+  ASSERT_EQ(run({"--world", kWorlds + "tuning/random15_tune.world", "--random-maps", "--robots", "1", "--runs", "1",
+                 "--duration", "10", "--cells-per-metre", "25", "--out", out.string()},
+                &log),
+            0)
+      << log;
+  EXPECT_NE(slurp(out / "worlds" / "map0.world").find("random 0.15 1042 1.0"), std::string::npos);
+  const auto s = nlohmann::json::parse(slurp(out / "summary.json"));
+  EXPECT_DOUBLE_EQ(s["cells_per_metre"].get<double>(), 25.0);
+  EXPECT_NE(run({"--world", kWorlds + "tuning/offices_long.world", "--cells-per-metre", "-1", "--out", out.string()}, &log),
+            0);
+  EXPECT_NE(log.find("cells-per-metre"), std::string::npos) << log;
+  for (const char* w : {"offices_long", "random_clutter_tune"}) {  // they load, and the clutter is not the grid's
+    ASSERT_EQ(run({"--world", kWorlds + "tuning/" + w + ".world", "--robots", "1", "--runs", "1", "--duration", "10",
+                   "--out", (out / w).string()},
+                  &log),
+              0)
+        << log;
+  }
+  EXPECT_NE(slurp(fs::path(kWorlds) / "tuning" / "random_clutter_tune.world").find("random 0.10 1007 0.5"),
+            std::string::npos);
+  fs::remove_all(out);
+}
+
 }  // namespace
 }  // namespace cairn

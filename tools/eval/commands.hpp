@@ -49,6 +49,7 @@ struct ExploreCmdOptions {
   bool random_maps = false;          // run k on the world's `random` line with its seed + k
   bool shared_world = false;         // the robots in one world: they see, block and meet each other
   double duration = 900;             // simulated s per run (the cap)
+  double cells_per_metre = -1;       // the allocator's exchange rate; < 0: the base's default
   int jobs = 0;                      // runs at once; 0: one per core
   std::string out_dir;               // default explore-<world name>
   bool verbose = false;              // the fleets' log lines too

@@ -31,6 +31,7 @@ struct RunSpec {
   std::uint64_t seed = 0;
   std::string world_path;
   bool shared_world = false;
+  double cells_per_metre = -1;  // < 0: the allocator's default
 };
 
 std::string read_text(const std::string& path) {
@@ -76,6 +77,7 @@ ExploreRun run_one(const RunSpec& spec, double duration, const std::string& out_
   cfg.explore = true;
   cfg.shared_world = spec.shared_world;
   cfg.exploration.allocator.coordinated = spec.mode == "coordinated";
+  if (spec.cells_per_metre >= 0) cfg.exploration.allocator.cells_per_metre = spec.cells_per_metre;
   cfg.coverage_period = static_cast<Nanos>(kCoveragePeriodS * 1e9);
   sim::set_tool_speeds(&cfg);
   const auto t0 = std::chrono::steady_clock::now();
@@ -257,7 +259,8 @@ int explore(const ExploreCmdOptions& o) {
       if (o.mode == "both" && mode == std::string("uncoordinated") && n == 1) continue;  // one robot: the same run
       for (int k = 0; k < o.runs; ++k) {
         specs.push_back(
-            {mode, n, k, o.seed + static_cast<std::uint64_t>(k), worlds[static_cast<std::size_t>(k)], o.shared_world});
+            {mode, n, k, o.seed + static_cast<std::uint64_t>(k), worlds[static_cast<std::size_t>(k)], o.shared_world,
+             o.cells_per_metre});
       }
     }
   }
@@ -347,6 +350,7 @@ int explore(const ExploreCmdOptions& o) {
       {"random_maps", o.random_maps},
       {"shared_world", o.shared_world},
       {"duration_s", o.duration},
+      {"cells_per_metre", o.cells_per_metre >= 0 ? nlohmann::json(o.cells_per_metre) : nlohmann::json(nullptr)},
       {"seed", o.seed},
       {"coverage_period_s", kCoveragePeriodS},
       {"failure_if_agreement_below", kFailureAgreement},

@@ -83,6 +83,10 @@ int main(int argc, char** argv) {
                "they can collide (default: a world per robot, robots pass through each other)");
   xp->add_option("--duration", ex.duration, "simulated seconds per run at most")->capture_default_str()
       ->check(CLI::Range(10.0, 1e5));
+  xp->add_option("--cells-per-metre", ex.cells_per_metre,
+                 "the task allocator's exchange rate, cells of expected gain per metre of path (default: cairn-base's, "
+                 "[explore] cells_per_metre; for tuning on held-out worlds, scripts/explore-tune.sh)")
+      ->check(CLI::Range(0.0, 1e4));
   xp->add_option("--jobs", ex.jobs, "runs at once (default: one per core)")->check(CLI::Range(1, 64));
   xp->add_option("--out", ex.out_dir, "output directory (default explore-WORLD)");
   xp->add_flag("--verbose", ex.verbose, "print the simulated robots' and base's warnings too");
