@@ -12,6 +12,7 @@ void DiffRobot::step(double left_motor, double right_motor, double dt) {
   const Pose2 next = compose(pose_, arc_motion(v, w, dt));
   if (world_->collides(next.translation(), radius_, id_)) {
     ++bumps_;  // blocked: the wheels slip, the robot turns in place at most
+    if (v > kCreep_mps) ++front_bumps_;
     turn_in_place(next.theta);
     return;
   }

@@ -32,6 +32,11 @@ class DiffRobot {
   double odometer() const { return odometer_; }
   /// Steps blocked by the world's obstacles (walls, circles, robots placed in `world`).
   std::uint64_t bumps() const { return bumps_; }
+  /// Those of them driving forward (faster than kCreep_mps): into something ahead. A disc
+  /// touching a wall also "bumps" when it turns in place or reverses (the wheels' unequal
+  /// radii move its centre a few micrometres), which is no reason to back off.
+  std::uint64_t front_bumps() const { return front_bumps_; }
+  static constexpr double kCreep_mps = 0.02;
   /// Steps blocked by another robot's body in the shared FleetBodies.
   std::uint64_t robot_contacts() const { return robot_contacts_; }
 
@@ -44,7 +49,7 @@ class DiffRobot {
   World* world_;
   FleetBodies* bodies_ = nullptr;
   double odometer_ = 0;
-  std::uint64_t bumps_ = 0, robot_contacts_ = 0;
+  std::uint64_t bumps_ = 0, front_bumps_ = 0, robot_contacts_ = 0;
   double scale_left_ = 1.0, scale_right_ = 1.0;
 };
 

@@ -3,6 +3,7 @@
 #include "common/robot_marker.hpp"
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -15,6 +16,8 @@ World World::load(const std::string& path) {
   if (!in) throw std::runtime_error(path + ": cannot open world file");
   std::stringstream ss;
   ss << in.rdbuf();
+  // A directory opens as a stream that reads nothing: it would load as an empty world.
+  if (in.bad() || std::filesystem::is_directory(path)) throw std::runtime_error(path + ": cannot read world file");
   return parse(ss.str(), path);
 }
 

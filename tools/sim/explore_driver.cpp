@@ -89,6 +89,7 @@ void ExploreDriver::plan_for(std::size_t index, const RobotView& r, std::vector<
   o.index = index;
   o.back_off = back_off;
   bumps_[index] = r.bumps;
+  front_bumps_[index] = r.front_bumps;
   if (!task || !msg::task_moves(task->kind) || !r.localised) return;  // stop
   ++counters_.plans;
   // What has held this robot (BlockMarks) is an obstacle in its plan only, as in cairn-robot.
@@ -122,6 +123,7 @@ bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, boo
   if (task_id_.size() < robots.size()) {
     task_id_.resize(robots.size(), 0);
     bumps_.resize(robots.size(), 0);
+    front_bumps_.resize(robots.size(), 0);
     nav_.resize(robots.size(), firmware::NavMonitor(config_.nav_monitor));
     marks_.resize(robots.size(), explore::BlockMarks(config_.blocks));
     replan_at_.resize(robots.size(), -1);
@@ -176,7 +178,7 @@ bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, boo
     for (std::size_t k = 0; k < robots.size(); ++k) {
       if (robots[k].id != a.robot_id) continue;
       task_id_[k] = a.task_id;
-      plan_for(k, robots[k], orders, robots[k].bumps != bumps_[k]);
+      plan_for(k, robots[k], orders, robots[k].front_bumps != front_bumps_[k]);
       planned[k] = true;
     }
   }
@@ -186,10 +188,14 @@ bool ExploreDriver::advance(Nanos now, const std::vector<RobotView>& robots, boo
     if (planned[k]) continue;
     const auto task = allocator_.task(robots[k].id);
     if (!task || !task->active || !msg::task_moves(task->kind)) continue;
-    const bool bumped = robots[k].bumps != bumps_[k];
+    // Driven into something: back off, then a new path. Bumped while backing off: the new
+    // path ends the back-off (it hit what is behind). Touching a wall while turning in place
+    // is no reason to replan.
+    const bool bumped = robots[k].front_bumps != front_bumps_[k];
+    const bool bumped_backing = robots[k].backing_off && robots[k].bumps != bumps_[k];
     const bool barrier_ended = replan_at_[k] >= 0 && now > replan_at_[k];
-    if (!bid_now && !bumped && !held[k] && !barrier_ended) continue;
-    if (bumped) ++counters_.replans_after_bump;
+    if (!bid_now && !bumped && !bumped_backing && !held[k] && !barrier_ended) continue;
+    if (bumped || bumped_backing) ++counters_.replans_after_bump;
     plan_for(k, robots[k], orders, bumped);
   }
   if (bid_now) {

@@ -60,7 +60,7 @@ struct ExploreConfig {
 
 struct ExploreCounters {
   std::uint64_t bids = 0, bids_no_frontier = 0, bids_failed = 0;  // failed: robot outside the map / in an obstacle
-  std::uint64_t plans = 0, plan_failures = 0, replans_after_bump = 0;  // each replan after a bump backs off first
+  std::uint64_t plans = 0, plan_failures = 0, replans_after_bump = 0;  // after a front bump (backs off first) or one while backing off
   /// Bid periods in which at least two robots held explore tasks on different frontiers
   /// (targets farther apart than the allocator's same_frontier_m): the coordination seen.
   std::uint64_t periods_on_distinct_frontiers = 0;
@@ -77,7 +77,9 @@ class ExploreDriver {
     std::uint16_t id = 0;
     bool localised = false;  // the fusion has a correction for it
     Pose2 global;            // local ⊕ correction
-    std::uint64_t bumps = 0;
+    std::uint64_t bumps = 0;        // steps blocked by the world (hil::DiffRobot::bumps)
+    std::uint64_t front_bumps = 0;  // those driving forward: back off, then replan
+    bool backing_off = false;       // a bump now ends the back-off (the replan's new path)
     StopReason stop = StopReason::kNone;  // the robot's safety state (the stuck report's input)
     Vec2 local = Vec2::Zero();            // its local position (progress, for the stuck report)
     bool path_done = true;                // it has followed its path to the end (arrived: not stuck)
@@ -125,7 +127,7 @@ class ExploreDriver {
   std::uint32_t map_version_ = 0, bid_seq_ = 0;
   Nanos next_bid_ = 0;
   std::vector<std::uint32_t> task_id_;   // per robot index: the task its path is for
-  std::vector<std::uint64_t> bumps_;     // per robot index: bumps at the last plan
+  std::vector<std::uint64_t> bumps_, front_bumps_;  // per robot index: bumps at the last plan
   std::vector<firmware::NavMonitor> nav_;  // per robot index: its stuck report
   std::vector<explore::BlockMarks> marks_;  // per robot index: what has held it
   std::vector<Nanos> replan_at_;             // per robot index: the barrier it yields to ends (-1: none)

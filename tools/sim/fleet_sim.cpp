@@ -113,6 +113,8 @@ void FleetSim::explore_step() {
       corrections_[k] = c.local_to_global;
     }
     v.bumps = r->bumps();
+    v.front_bumps = r->front_bumps();
+    v.backing_off = r->backing_off(now_);
     v.stop = r->core().stop();
     v.local = r->core().local_pose().translation();
     v.path_done = r->path_done();

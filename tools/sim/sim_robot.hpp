@@ -58,6 +58,8 @@ class SimRobot {
   Pose2 local_in_world() const { return compose(cfg_.start, core_.local_pose()); }
   double odometer() const { return body_->odometer(); }
   std::uint64_t bumps() const { return body_->bumps(); }
+  std::uint64_t front_bumps() const { return body_->front_bumps(); }
+  bool backing_off(Nanos now) const { return now < back_off_until_; }
   std::uint64_t scans() const { return scans_; }
   firmware::RobotCore& core() { return core_; }
   int id() const { return cfg_.id; }
