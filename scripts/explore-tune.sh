@@ -7,6 +7,9 @@
 # runs them. Score: the mean over (world, robot count) of the mean time to 95 % coverage
 # relative to the same at the first rate listed (a run that never reaches 95 % counts as
 # the 1800 s cap); the lowest score wins. Writes OUT/tune.md and OUT/tune.json.
+# The rate is set on both sides: the base's allocator and the robots' bids (which rank and
+# cut their items with it). TUNE_REUSE=1 keeps a (rate, world) whose summary is already in
+# OUT instead of running it again (only valid for the same code: the runs are deterministic).
 #   scripts/explore-tune.sh [RUNS] [RATES] [OUT]   e.g. scripts/explore-tune.sh 3 "10 20 40"
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -26,6 +29,10 @@ for rate in $rates; do
   for w in offices_long random15_tune random_clutter_tune; do
     extra=()
     [ "$w" = offices_long ] || extra=(--random-maps)
+    if [ -n "${TUNE_REUSE:-}" ] && [ -f "$out/$rate/$w/summary.json" ]; then
+      echo "== explore-tune: $rate cells/m, $w: kept from an earlier run (TUNE_REUSE)"
+      continue
+    fi
     echo "== explore-tune: $rate cells/m, $w, $(( $(date +%s) - start )) s so far"
     "$bin" explore --world "hil/worlds/tuning/$w.world" --robots 1,2,3 --runs "$runs" --seed 101 --shared-world \
       --duration 1800 --cells-per-metre "$rate" --out "$out/$rate/$w" "${extra[@]}" >/dev/null

@@ -16,10 +16,11 @@ struct AllocatorConfig {
   Nanos bid_wait = kNanosPerSecond / 2;
   /// The exchange rate between the two sides of the net utility, in cells of expected gain
   /// per metre of path: u = (1 - d)·i·h − cells_per_metre·c, in cells. The COST side is
-  /// scaled (the gain stays a cell count, comparable with min_gain). 10 cells per metre at
-  /// 15 cm is about 0.22 m² of new map per metre driven: a starting value for the
-  /// experiments to tune, not a measured one.
-  double cells_per_metre = 10.0;
+  /// scaled (the gain stays a cell count, comparable with min_gain). 40 cells per metre at
+  /// 15 cm is about 0.9 m² of new map per metre driven. Chosen by scripts/explore-tune.sh on
+  /// held-out worlds only (hil/worlds/tuning; 10, 20, 40, 80 tried; docs/explore.md "Tuning
+  /// the exchange rate"); the robots rank their bids with the same rate (gain_per_metre).
+  double cells_per_metre = 40.0;
   /// An item is assignable only while its discounted gain (1 − d)·i is above this (cells);
   /// exploration ends when no robot's latest bid has an item with gain above it.
   double min_gain = 20.0;

@@ -24,7 +24,7 @@ struct FrontierBidderConfig {
   double sensor_range_m = 4.0;       // nominal range: unknown cells counted within it of the frontier cell
   std::size_t max_items = msg::kMaxBids;  // items per bid, <= msg::kMaxBids
   std::size_t min_gain_cells = 1;    // items expected to reveal fewer unknown cells are not bid
-  double gain_per_metre = 10.0;      // ranking exchange rate: cells of gain worth one metre of travel
+  double gain_per_metre = 40.0;      // ranking exchange rate: cells of gain worth one metre of travel (the base's cells_per_metre)
   // A run of unknown cells at most this long (in cells: floor(wall_gap_m / resolution))
   // between two obstacle cells, along a row, column or diagonal, is taken as wall cells the
   // laser missed: the gain flood does not cross it, so what lies behind a wall or inside a

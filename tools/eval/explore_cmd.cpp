@@ -77,7 +77,10 @@ ExploreRun run_one(const RunSpec& spec, double duration, const std::string& out_
   cfg.explore = true;
   cfg.shared_world = spec.shared_world;
   cfg.exploration.allocator.coordinated = spec.mode == "coordinated";
-  if (spec.cells_per_metre >= 0) cfg.exploration.allocator.cells_per_metre = spec.cells_per_metre;
+  if (spec.cells_per_metre >= 0) {  // both sides: the robots rank (and cut) their bids with the base's rate
+    cfg.exploration.allocator.cells_per_metre = spec.cells_per_metre;
+    cfg.exploration.bidder.gain_per_metre = spec.cells_per_metre;
+  }
   cfg.coverage_period = static_cast<Nanos>(kCoveragePeriodS * 1e9);
   sim::set_tool_speeds(&cfg);
   const auto t0 = std::chrono::steady_clock::now();

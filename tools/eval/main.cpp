@@ -84,8 +84,9 @@ int main(int argc, char** argv) {
   xp->add_option("--duration", ex.duration, "simulated seconds per run at most")->capture_default_str()
       ->check(CLI::Range(10.0, 1e5));
   xp->add_option("--cells-per-metre", ex.cells_per_metre,
-                 "the task allocator's exchange rate, cells of expected gain per metre of path (default: cairn-base's, "
-                 "[explore] cells_per_metre; for tuning on held-out worlds, scripts/explore-tune.sh)")
+                 "the exchange rate, cells of expected gain per metre of path, of the base's task allocator and of the "
+                 "robots' bids (default: [explore] cells_per_metre and gain_per_metre; for tuning on held-out worlds, "
+                 "scripts/explore-tune.sh)")
       ->check(CLI::Range(0.0, 1e4));
   xp->add_option("--jobs", ex.jobs, "runs at once (default: one per core)")->check(CLI::Range(1, 64));
   xp->add_option("--out", ex.out_dir, "output directory (default explore-WORLD)");
