@@ -273,6 +273,11 @@ printf '[Partition]\nType=root-arm64\n' >"$root/etc/repart.d/50-root.conf"
 # Wired network: DHCP on every Ethernet port (a fleet's static address: docs/robot-image.md).
 mkdir -p "$root/etc/systemd/network"
 printf '[Match]\nName=en* eth*\n\n[Network]\nDHCP=yes\n' >"$root/etc/systemd/network/20-wired.network"
+# cairn-robot.service waits for network-online.target: a robot booted without its cable (or
+# without a DHCP answer) starts it after 20 s, not after wait-online's default 2 min.
+mkdir -p "$root/etc/systemd/system/systemd-networkd-wait-online.service.d"
+printf '[Service]\nExecStart=\nExecStart=/lib/systemd/systemd-networkd-wait-online --any --timeout=20\n' \
+  >"$root/etc/systemd/system/systemd-networkd-wait-online.service.d/50-cairn.conf"
 # SSH: keys only. Host keys are made at first boot, so robots flashed from one image differ.
 install -d -m 0755 "$root/etc/ssh/sshd_config.d"
 printf 'PasswordAuthentication no\nKbdInteractiveAuthentication no\nPermitRootLogin prohibit-password\n' \
