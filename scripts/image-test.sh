@@ -245,7 +245,7 @@ while kill -0 "$qemu_pid" 2>/dev/null; do
   if ((SECONDS - boot_start > timeout)); then
     kill "$qemu_pid" 2>/dev/null || true; wait "$qemu_pid" 2>/dev/null || true; qemu_pid=""
     echo "$prog: TIMEOUT: the guest did not finish its checks within $timeout s. Console log tail ($log):" >&2
-    tail -n 30 "$log" | tr -d '\r' | sed 's/^/  | /' >&2
+    tr -d '\r' <"$log" | sed 's/\x1b\[[0-9;]*[A-Za-z]//g' | tail -n 20 | cut -c1-160 | sed 's/^/  | /' >&2
     keep=1
     exit 1
   fi
@@ -260,7 +260,7 @@ stage "guest powered off after $run_s s"
 
 # ---- results
 tr -d '\r' <"$log" >"$log.txt"
-grep -q 'CAIRN-TEST end' "$log.txt" || { keep=1; echo "$prog: the guest stopped before its checks ended; console log tail:" >&2; tail -n 30 "$log.txt" | sed 's/^/  | /' >&2; exit 1; }
+grep -q 'CAIRN-TEST end' "$log.txt" || { keep=1; echo "$prog: the guest stopped before its checks ended; console log tail:" >&2; sed 's/\x1b\[[0-9;]*[A-Za-z]//g' "$log.txt" | tail -n 20 | cut -c1-160 | sed 's/^/  | /' >&2; exit 1; }
 echo "$prog: boot: $(sed -n 's/.*CAIRN-BOOT-TIME //p' "$log.txt" | head -n 1)"
 mu_us=$(sed -n 's/.*CAIRN-MULTI-USER-US \([0-9]*\).*/\1/p' "$log.txt" | head -n 1)
 [[ -n $mu_us ]] && echo "$prog: multi-user.target reached $((mu_us / 1000000)).$(printf '%01d' $((mu_us / 100000 % 10))) s after the kernel started (UEFI firmware and GRUB before it: see the log)"
