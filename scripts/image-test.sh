@@ -7,7 +7,7 @@
 #   --timeout SECONDS   give up after this long (default 900: TCG emulation is slow)
 #   --work-dir DIR      where the copy, the firmware variables and the console log go
 #                       (default /tmp/cairn-image/test.PID; the copy is removed afterwards)
-#   --keep              keep the copy and the log
+#   --keep              keep the copy and the log (kept anyway when a check fails or on a timeout)
 #   --cpu MODEL         qemu's -cpu (default max,pauth-impdef=on)
 #   --smp N             guest CPUs (default 2: the default configuration pins the RT loop to CPU 1)
 #   --grow SIZE         make the copy this much larger than the image, as a larger card is
