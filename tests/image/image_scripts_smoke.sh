@@ -2,7 +2,7 @@
 # Smoke test of scripts/make-image.sh and scripts/image-test.sh that CI can afford (~2 s):
 # their usage errors (exit status 2) and the refusals make-image.sh makes before it builds
 # anything (exit status 1, one clear line). Builds no image and boots nothing: the full
-# build and boot take many minutes (docs/robot-image.md). Not registered with ctest.
+# build and boot take many minutes (docs/robot-image.md). ctest: image_scripts_smoke.
 #   tests/image/image_scripts_smoke.sh [SOURCE_DIR]
 set -uo pipefail
 src=${1:-$(cd "$(dirname "$0")/../.." && pwd)}
