@@ -58,6 +58,15 @@ done
 [[ "$smp" =~ ^[1-9][0-9]?$ ]] || die "--smp '$smp': expected a CPU count" 2
 [[ "$grow" =~ ^(0|[1-9][0-9]*[MG])$ ]] || die "--grow '$grow': expected 0 or a size in M or G" 2
 [[ -f "$image" ]] || die "image '$image' not found"
+command -v sfdisk >/dev/null || die "needs sfdisk to read the image's partition table (apt-get install fdisk)"
+
+# ---- the image's layout: the root partition (type Linux root arm64, or the one labelled cairn-root)
+table=$(sfdisk --dump "$image" 2>/dev/null) || die "'$image' has no partition table sfdisk can read"
+root_line=$(grep -i -E 'type=B921B045-1DF0-41C3-AF44-4C6F280D3FAE|name="cairn-root"' <<<"$table" | head -n 1 || true)
+[[ -n "$root_line" ]] || die "'$image' has no root partition (type Linux root arm64 or name cairn-root): not made by make-image.sh?"
+root_start=$(sed -nE 's/.*start= *([0-9]+).*/\1/p' <<<"$root_line")
+grep -qi 'type=C12A7328-F81F-11D2-BA4B-00A0C93EC93B' <<<"$table" || die "'$image' has no EFI system partition"
+# The image is checked before anything is installed or run as root.
 [[ $(id -u) -eq 0 ]] || die "needs root (debugfs on the copy's root file system keeps file ownership as root)"
 
 stage "host tools"
@@ -68,17 +77,11 @@ apt_install_missing "$prog" qemu-system-arm qemu-efi-aarch64 e2fsprogs fdisk >/d
 fw_code=/usr/share/AAVMF/AAVMF_CODE.fd fw_vars=/usr/share/AAVMF/AAVMF_VARS.fd
 [[ -f $fw_code && -f $fw_vars ]] || die "no UEFI firmware at $fw_code (qemu-efi-aarch64)"
 
-# ---- the image's layout: the root partition (type Linux root arm64, or the one labelled cairn-root)
-table=$(sfdisk --dump "$image" 2>/dev/null) || die "'$image' has no partition table sfdisk can read"
-root_line=$(grep -i -E 'type=B921B045-1DF0-41C3-AF44-4C6F280D3FAE|name="cairn-root"' <<<"$table" | head -n 1 || true)
-[[ -n "$root_line" ]] || die "'$image' has no root partition (type Linux root arm64 or name cairn-root): not made by make-image.sh?"
-root_start=$(sed -nE 's/.*start= *([0-9]+).*/\1/p' <<<"$root_line")
-grep -qi 'type=C12A7328-F81F-11D2-BA4B-00A0C93EC93B' <<<"$table" || die "'$image' has no EFI system partition"
-
 [[ -n "$work" ]] || work=/tmp/cairn-image/test.$$
 mkdir -p "$work"
 work=$(realpath "$work")
 copy=$work/disk.raw vars=$work/vars.fd log=$work/console.log checks=$work/checks
+[[ "$(realpath "$image")" != "$copy" ]] || die "the image is the test's own copy ($copy): give another --work-dir"
 qemu_pid=""
 cleanup() {
   if [[ -n "$qemu_pid" ]] && kill -0 "$qemu_pid" 2>/dev/null; then kill "$qemu_pid" 2>/dev/null || true; wait "$qemu_pid" 2>/dev/null || true; fi

@@ -116,9 +116,18 @@ if [[ -z "$hostname" ]]; then
   [[ -n "$hostname" ]] || hostname=cairn-robot
 fi
 ((${#ssh_keys[@]})) || echo "$prog: WARNING: no --ssh-key: password logins are off and root has no password, so nobody can log in to this image" >&2
-[[ $(id -u) -eq 0 ]] || die "needs root: mmdebstrap's root mode and the root file system's ownership (run with sudo)"
 out_dir=$(dirname "$out")
 [[ -d "$out_dir" && -w "$out_dir" ]] || die "cannot write '$out': no such directory, or not writable"
+# The image is written next to --out and moved over it: never onto a device (flash.sh does that).
+[[ ! -e "$out" || -f "$out" ]] || die "'$out' exists and is not a regular file: --out names the image file (write it to a card with scripts/flash.sh)"
+# The scratch directory's root/ is deleted: only a new or empty directory, or one this script made.
+[[ -n "$work" ]] || work=/tmp/cairn-image/work.$$
+if [[ -e "$work" ]]; then
+  [[ -d "$work" ]] || die "--work-dir '$work' is not a directory"
+  [[ -z "$(ls -A "$work")" || -e "$work/.cairn-make-image" ]] ||
+    die "--work-dir '$work' is not empty and was not made by make-image.sh: give a new or empty directory"
+fi
+[[ $(id -u) -eq 0 ]] || die "needs root: mmdebstrap's root mode and the root file system's ownership (run with sudo)"
 
 # ---- host tools
 stage "host tools"
@@ -151,9 +160,9 @@ grep -q '^flags:.*F' "$bm/qemu-$qemu_arch" ||
   die "binfmt_misc entry qemu-$qemu_arch lacks the F flag (its interpreter would have to exist inside the chroot): update-binfmts --disable qemu-$qemu_arch; then rerun"
 
 # ---- scratch space
-[[ -n "$work" ]] || work=/tmp/cairn-image/work.$$
 mkdir -p "$work"
 work=$(realpath "$work")
+touch "$work/.cairn-make-image"
 root=$work/root
 cleanup() {
   # mmdebstrap unmounts what it mounted in the root even when it fails; if anything is still
@@ -164,6 +173,7 @@ cleanup() {
     rm -rf --one-file-system "$root"
   fi
   rm -f "$work"/esp.img "$work"/root.img "$work"/hook.sh "$work"/BOOTAA64.EFI "$out.partial"
+  rm -f "$work/.cairn-make-image"
   rmdir "$work" 2>/dev/null || true
 }
 trap cleanup EXIT

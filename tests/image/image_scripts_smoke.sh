@@ -75,6 +75,11 @@ expect 1 'must use the image.s profile' "$mk" aarch64 "${ok[@]}" --config "$tmp/
 expect 1 "SSH key '.*/nokey.pub' not found" "$mk" aarch64 "${ok[@]}" --ssh-key "$tmp/nokey.pub"
 expect 1 'not an OpenSSH public key' "$mk" aarch64 "${ok[@]}" --ssh-key "$tmp/key"
 expect 1 'cannot write' "$mk" aarch64 --package "$tmp/robot-arm64.deb" --ssh-key "$tmp/key.pub" --out "$tmp/nodir/robot.img"
+mkfifo "$tmp/fifo.img"  # --out must be the image file, never a device or anything else
+expect 1 'exists and is not a regular file' "$mk" aarch64 "${ok[@]}" --out "$tmp/fifo.img"
+mkdir -p "$tmp/busy" && touch "$tmp/busy/keep"  # its root/ would be deleted: only new, empty or its own
+expect 1 "--work-dir '.*/busy' is not empty" "$mk" aarch64 "${ok[@]}" --work-dir "$tmp/busy"
+[[ -e "$tmp/busy/keep" ]] || { echo "FAIL: a refused --work-dir lost a file"; fails=$((fails + 1)); }
 
 # image-test.sh: usage errors (2) and images it refuses (1)
 expect 0 'image-test.sh robot.img' "$it" --help
@@ -83,7 +88,7 @@ expect 2 'unknown option' "$it" --bogus x.img
 expect 2 "--timeout 'soon'" "$it" x.img --timeout soon
 expect 2 "--grow '1T'" "$it" x.img --grow 1T
 expect 1 "image '.*/missing.img' not found" "$it" "$tmp/missing.img"
-if [[ $(id -u) -eq 0 ]] && command -v sfdisk >/dev/null; then
+if command -v sfdisk >/dev/null; then  # checked before the root check and before any install
   truncate -s 8M "$tmp/blank.img"
   expect 1 'no partition table' "$it" "$tmp/blank.img"
   printf 'label: gpt\nsize=4M, type=0FC63DAF-8483-4772-8E79-3D69D8477DE4\n' | sfdisk -q "$tmp/blank.img" >/dev/null
