@@ -36,27 +36,19 @@ bool RobotExplorer::plan(const Pose2& robot_global, Nanos now, msg::TaskAssignme
   ++counters_.plans;
   // The marks go into a copy: stamped into grid_ they would pile up between two periods'
   // classifications (an expired mark or an old barrier still closing the way).
-  const Vec2 goal(task_.target_x, task_.target_y);
   explore::PlanStatus s = explore::PlanStatus::kBadMap;
   yielding_ = false;
   replan_at_ = -1;
   if (have_grid_) {
-    plan_grid_.geometry = grid_.geometry;
-    plan_grid_.cells.assign(grid_.cells.begin(), grid_.cells.end());  // within the reserve: no allocation
-    const std::size_t barriers = marks_.stamp(&plan_grid_, now);
-    s = planner_.plan(plan_grid_.geometry, plan_grid_.cells.data(), robot_global.translation(), goal, &path_);
-    if (s != explore::PlanStatus::kOk && barriers > 0) {
-      // Closed by keep right alone, or a dead end? Plan again without the barriers.
-      plan_grid_.cells.assign(grid_.cells.begin(), grid_.cells.end());
-      (void)marks_.stamp(&plan_grid_, now, /*barriers=*/false);
-      yielding_ = planner_.plan(plan_grid_.geometry, plan_grid_.cells.data(), robot_global.translation(), goal,
-                                &path_) == explore::PlanStatus::kOk;
-      if (yielding_) {
-        ++counters_.yields;
-        replan_at_ = marks_.next_barrier_end(now);
-        route->kind = msg::TaskKind::kIdle;  // stand while the other passes
-        return false;
-      }
+    const explore::MarkedPlan p = explore::plan_with_marks(planner_, marks_, grid_, &plan_grid_, robot_global.translation(),
+                                                           Vec2(task_.target_x, task_.target_y), now, &path_);
+    s = p.status;
+    if (p.yielding) {
+      yielding_ = true;
+      replan_at_ = p.replan_at;
+      ++counters_.yields;
+      route->kind = msg::TaskKind::kIdle;  // stand while the other passes
+      return false;
     }
   }
   if (s != explore::PlanStatus::kOk) {

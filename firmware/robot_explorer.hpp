@@ -17,6 +17,7 @@
 #include "firmware/explore/block_marks.hpp"
 #include "firmware/explore/frontier_bids.hpp"
 #include "firmware/explore/grid_planner.hpp"
+#include "firmware/explore/marked_plan.hpp"
 #include "firmware/global_map.hpp"
 
 namespace cairn::firmware {

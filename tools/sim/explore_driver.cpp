@@ -92,23 +92,15 @@ void ExploreDriver::plan_for(std::size_t index, const RobotView& r, std::vector<
   front_bumps_[index] = r.front_bumps;
   if (!task || !msg::task_moves(task->kind) || !r.localised) return;  // stop
   ++counters_.plans;
-  // What has held this robot (BlockMarks) is an obstacle in its plan only, as in cairn-robot.
-  marked_ = grid_;
-  const std::size_t barriers = marks_[index].stamp(&marked_, now_);
-  const explore::PlanStatus s =
-      planner_.plan(marked_.geometry, marked_.cells.data(), r.global.translation(), task->target, &path_);
-  replan_at_[index] = -1;
-  if (s != explore::PlanStatus::kOk && barriers > 0) {
-    // As cairn-robot's RobotExplorer: closed by keep right alone, the robot yields (stands
-    // until the barrier ends, then replans); a dead end also without barriers fails.
-    marked_ = grid_;
-    (void)marks_[index].stamp(&marked_, now_, /*barriers=*/false);
-    if (planner_.plan(marked_.geometry, marked_.cells.data(), r.global.translation(), task->target, &path_) ==
-        explore::PlanStatus::kOk) {
-      ++counters_.yields;
-      replan_at_[index] = marks_[index].next_barrier_end(now_);
-      return;
-    }
+  // What has held this robot (BlockMarks) is an obstacle in its plan only, as in cairn-robot
+  // (and a plan closed by keep right alone is a yield: the robot stands until the barrier ends).
+  const explore::MarkedPlan p =
+      explore::plan_with_marks(planner_, marks_[index], grid_, &marked_, r.global.translation(), task->target, now_, &path_);
+  const explore::PlanStatus s = p.status;
+  replan_at_[index] = p.replan_at;
+  if (p.yielding) {
+    ++counters_.yields;
+    return;
   }
   if (s != explore::PlanStatus::kOk) {
     // The robot stands; the allocator's monitor takes the task back after its timeout.

@@ -19,6 +19,7 @@
 #include "firmware/nav_monitor.hpp"
 #include "firmware/explore/frontier_bids.hpp"
 #include "firmware/explore/grid_planner.hpp"
+#include "firmware/explore/marked_plan.hpp"
 
 namespace cairn::sim {
 
