@@ -112,6 +112,72 @@ msg::Landmark landmark(std::uint32_t id, double x, double y) {
   return l;
 }
 
+// A 6 m x 4 m room split at x = 3 by a wall with a 0.7 m door (y 1.65..2.35): a disc of
+// radius 0.3 m goes through it, one of 0.4 m does not.
+const char* kDoorWorld = R"(bounds 0 0 6 4
+box 0 0 6 4
+wall 3 0 3 1.65
+wall 3 2.35 3 4
+start 1 1.0 1.0 0
+)";
+
+bool drivable_at(const Reference& r, double x, double y) {
+  int i = 0, j = 0;
+  EXPECT_TRUE(r.truth.geometry.cell_of(x, y, &i, &j));
+  return r.drivable[r.truth.geometry.index(i, j)] != 0;
+}
+
+TEST(MapQuality, DrivableSpaceIsWhereTheRobotsDiscCanGoThroughTheDoor) {
+  const hil::World w = hil::World::parse(kDoorWorld, "door");
+  const GridGeometry g{0.1, 0.0, 0.0, 60, 40};
+  const Reference fits = make_reference(w, g, {1.0, 1.0}, 0.3);
+  const Reference too_wide = make_reference(w, g, {1.0, 1.0}, 0.4);
+  EXPECT_TRUE(drivable_at(fits, 1.5, 2.0));
+  EXPECT_TRUE(drivable_at(fits, 3.05, 2.0));  // in the door
+  EXPECT_TRUE(drivable_at(fits, 4.5, 2.0));   // beyond it
+  EXPECT_TRUE(drivable_at(too_wide, 1.5, 2.0));
+  EXPECT_FALSE(drivable_at(too_wide, 4.5, 2.0));
+  // The room's corner: the disc's centre comes no closer than (0.3, 0.3), so it sweeps the
+  // cell centred at (0.15, 0.15) (0.21 m away) but not the one at (0.05, 0.05) (0.35 m).
+  EXPECT_TRUE(drivable_at(fits, 0.15, 0.15));
+  EXPECT_FALSE(drivable_at(fits, 0.05, 0.05));
+  // The free space is the same for both; a map of the near room and the door (x < 3.3 m;
+  // the wide disc sweeps up to 3.21 m into it) covers all the wide disc's.
+  ClassGrid near_room = truth_as_map(fits.truth);
+  for (int j = 0; j < g.height; ++j)
+    for (int i = 33; i < g.width; ++i) near_room.at(i, j) = Cell::kUnknown;
+  const MapQuality a = evaluate(near_room, fits, w), b = evaluate(near_room, too_wide, w);
+  EXPECT_EQ(a.free_cells, b.free_cells);
+  EXPECT_DOUBLE_EQ(a.coverage, b.coverage);
+  EXPECT_LT(a.coverage, 0.6);
+  EXPECT_LT(a.drivable_coverage, 0.6);
+  EXPECT_DOUBLE_EQ(b.drivable_coverage, 1.0);
+  EXPECT_LT(b.drivable_cells, a.drivable_cells / 2 + 10);
+  EXPECT_THROW(make_reference(w, g, {1.0, 1.0}, std::nan("")), std::invalid_argument);
+  EXPECT_THROW(make_reference(w, g, {1.0, 1.0}, -0.3), std::invalid_argument);
+  EXPECT_THROW(evaluate(near_room, make_reference(w, {0.1, 0.0, 0.0, 50, 40}, {1.0, 1.0}, 0.3), w),
+               std::invalid_argument);  // another grid
+}
+
+// Two walls at x = 2 (y <= 2) and x = 2.5 (y >= 2.5) split the room; the way between them
+// passes between their ends (2, 2) and (2.5, 2.5), 0.71 m apart diagonally: a 0.3 m disc
+// goes through (0.35 m from each end at the middle), a 0.36 m one does not. On the map's
+// 0.15 m cells the ends' cells alone leave less than 0.6 m: the exact geometry decides.
+TEST(MapQuality, DrivableSpaceUsesTheExactGeometryNotTheMapsCells) {
+  const hil::World w = hil::World::parse(R"(bounds 0 0 4 4
+box 0 0 4 4
+wall 2 0 2 2
+wall 2.5 2.5 2.5 4
+start 1 1.0 3.0 0
+)", "diagonal");
+  const GridGeometry g{0.15, 0.0, 0.0, 27, 27};
+  const Reference fits = make_reference(w, g, {1.0, 3.0}, 0.3);
+  const Reference too_wide = make_reference(w, g, {1.0, 3.0}, 0.36);
+  EXPECT_TRUE(drivable_at(fits, 3.5, 1.0));
+  EXPECT_FALSE(drivable_at(too_wide, 3.5, 1.0));
+  EXPECT_TRUE(drivable_at(too_wide, 1.0, 1.0));
+}
+
 TEST(MapQuality, LandmarksArePairedOneToOneNearestFirst) {
   const std::vector<Vec2> poles = {{0, 0}, {5, 0}, {10, 0}};
   // (5.2, 0) and (5, 0.3) both lie near pole 2: the nearer one is its pair, the other is

@@ -99,6 +99,7 @@ ExploreRun run_one(const RunSpec& spec, double duration, const std::string& out_
   r.explored = s.explore && s.explore->explored;
   r.explored_at_s = r.explored ? s.explore->explored_at_s : 0;
   r.final_coverage = s.map.coverage;
+  r.final_drivable = s.map.drivable_coverage;
   r.agreement = s.map.agreement;
   r.wall_offset_max_m = s.map.wall_offset_max_m;
   r.closest_approach_m = s.closest_approach_m;
@@ -115,10 +116,10 @@ ExploreRun run_one(const RunSpec& spec, double duration, const std::string& out_
   const std::string dir = out_dir + "/runs/" + run_name(spec);
   std::filesystem::create_directories(dir);
   std::ofstream cov(dir + "/coverage.csv");
-  cov << "t_s,coverage,agreement\n";
+  cov << "t_s,coverage,agreement,drivable_coverage\n";
   char line[96];
   for (const auto& c : s.coverage) {
-    std::snprintf(line, sizeof line, "%.3f,%.6f,%.6f\n", c.t_s, c.coverage, c.agreement);
+    std::snprintf(line, sizeof line, "%.3f,%.6f,%.6f,%.6f\n", c.t_s, c.coverage, c.agreement, c.drivable);
     cov << line;
   }
   if (!cov) throw std::runtime_error("cannot write " + dir + "/coverage.csv");
@@ -148,6 +149,7 @@ nlohmann::json group_json(const ExploreGroup& g) {
           {"failures", g.failures},
           {"time_to_coverage_s", levels},
           {"coverage_mean", g.coverage_mean},
+          {"drivable_coverage_mean", g.drivable_mean},
           {"agreement_mean", g.agreement_mean},
           {"explored_at_mean_s", g.completed ? nlohmann::json(g.explored_at_mean) : nlohmann::json()},
           {"closest_approach_min_m", opt(g.closest_approach_min_m)},
@@ -178,13 +180,13 @@ std::string cell(const LevelStats& l, std::size_t runs) {
 std::string markdown_table(const std::vector<ExploreGroup>& gs) {
   std::string t =
       "| mode | robots | runs | explored | failures | 50 % (s) | 90 % (s) | 95 % (s) | 100 % (s) | final coverage | "
-      "agreement | closest approach (m) | bump steps |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+      "drivable coverage | agreement | closest approach (m) | bump steps |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   char buf[128];
   for (const auto& g : gs) {
     t += "| " + g.mode + " | " + std::to_string(g.robots) + " | " + std::to_string(g.runs) + " | " +
          std::to_string(g.completed) + " | " + std::to_string(g.failures) + " | ";
     for (std::size_t k = 0; k < 4; ++k) t += cell(g.level[k], g.runs) + " | ";
-    std::snprintf(buf, sizeof buf, "%.3f | %.3f | ", g.coverage_mean, g.agreement_mean);
+    std::snprintf(buf, sizeof buf, "%.3f | %.3f | %.3f | ", g.coverage_mean, g.drivable_mean, g.agreement_mean);
     t += buf;
     if (g.closest_approach_min_m) {
       std::snprintf(buf, sizeof buf, "%.2f | ", *g.closest_approach_min_m);
@@ -304,7 +306,8 @@ int explore(const ExploreCmdOptions& o) {
       } else {
         std::fprintf(stderr, "NOT explored by %.0f s", o.duration);
       }
-      std::fprintf(stderr, ", coverage %.3f, agreement %.3f%s (%.0f s wall)\n", r.final_coverage, r.agreement,
+      std::fprintf(stderr, ", coverage %.3f (drivable %.3f), agreement %.3f%s (%.0f s wall)\n", r.final_coverage,
+                   r.final_drivable, r.agreement,
                    is_failure(r) ? " FAILED" : "", r.wall_s);
     }
   };
@@ -339,6 +342,7 @@ int explore(const ExploreCmdOptions& o) {
                     {"explored", r.explored},
                     {"explored_at_s", r.explored ? nlohmann::json(r.explored_at_s) : nlohmann::json()},
                     {"final_coverage", r.final_coverage},
+                    {"final_drivable_coverage", r.final_drivable},
                     {"agreement", r.agreement},
                     {"failed", is_failure(r)},
                     {"wall_offset_max_m", r.wall_offset_max_m},

@@ -67,6 +67,7 @@ std::vector<ExploreGroup> aggregate(const std::vector<ExploreRun>& runs, double 
       }
       if (is_failure(*r)) ++g.failures;
       g.coverage_mean += r->final_coverage;
+      g.drivable_mean += r->final_drivable;
       g.agreement_mean += r->agreement;
       g.bump_steps += r->bump_steps;
       if (r->closest_approach_m && (!g.closest_approach_min_m || *r->closest_approach_m < *g.closest_approach_min_m)) {
@@ -74,6 +75,7 @@ std::vector<ExploreGroup> aggregate(const std::vector<ExploreRun>& runs, double 
       }
     }
     g.coverage_mean /= static_cast<double>(g.runs);
+    g.drivable_mean /= static_cast<double>(g.runs);
     g.agreement_mean /= static_cast<double>(g.runs);
     if (g.completed) g.explored_at_mean = explored_sum / static_cast<double>(g.completed);
     for (std::size_t k = 0; k < 4; ++k) g.level[k] = level_stats(group, k);

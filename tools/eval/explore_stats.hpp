@@ -32,6 +32,7 @@ struct ExploreRun {
   bool explored = false;             // the base reported the world explored before the cap
   double explored_at_s = 0;
   double final_coverage = 0, agreement = 0, wall_offset_max_m = 0;
+  double final_drivable = 0;  // coverage of the space the robots' bodies can sweep (drivable_space.hpp)
   double distance_m = 0;  // all robots
   std::uint64_t bump_steps = 0;
   std::optional<double> closest_approach_m;  // between two robots' centres (none with one robot)
@@ -51,7 +52,7 @@ struct ExploreGroup {
   int robots = 0;
   std::size_t runs = 0, completed = 0, failures = 0;
   LevelStats level[4];
-  double coverage_mean = 0, agreement_mean = 0;
+  double coverage_mean = 0, agreement_mean = 0, drivable_mean = 0;
   double explored_at_mean = 0;  // over completed runs
   std::optional<double> closest_approach_min_m;  // over the runs (none with one robot)
   std::uint64_t bump_steps = 0;                   // all runs

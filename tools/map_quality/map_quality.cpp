@@ -1,5 +1,6 @@
 #include "tools/map_quality/map_quality.hpp"
 
+#include "tools/map_quality/drivable_space.hpp"
 #include "tools/map_quality/pose_quality.hpp"
 
 #include <algorithm>
@@ -135,21 +136,47 @@ ClassGrid truth_as_map(const TruthGrid& truth) {
   return m;
 }
 
+Reference make_reference(const hil::World& world, const GridGeometry& geometry, const Vec2& start, double robot_radius_m) {
+  if (!(std::isfinite(robot_radius_m) && robot_radius_m >= 0))
+    throw std::invalid_argument("map quality: robot radius must be finite and >= 0 (got " + std::to_string(robot_radius_m) + ")");
+  Reference r;
+  r.truth = rasterise(world, geometry, start);
+  r.robot_radius_m = robot_radius_m;
+  if (robot_radius_m > 0) {
+    r.drivable = drivable_space(world, geometry, start, robot_radius_m);
+    for (std::size_t k = 0; k < r.drivable.size(); ++k) r.drivable[k] = r.drivable[k] && r.truth.cells[k] == Truth::kFree;
+  }
+  return r;
+}
+
 MapQuality evaluate(const ClassGrid& map, const hil::World& world, const Vec2& start) {
+  return evaluate(map, make_reference(world, map.geometry, start), world);
+}
+
+MapQuality evaluate(const ClassGrid& map, const Reference& reference, const hil::World& world) {
   const GridGeometry& g = map.geometry;
-  const TruthGrid truth = rasterise(world, g, start);
+  const GridGeometry& rg = reference.truth.geometry;
+  if (g.width != rg.width || g.height != rg.height || g.resolution != rg.resolution || g.origin_x != rg.origin_x ||
+      g.origin_y != rg.origin_y)
+    throw std::invalid_argument("map quality: the map's grid is not the reference's");
+  const TruthGrid& truth = reference.truth;
+  const bool drivable = !reference.drivable.empty();
   MapQuality q;
   q.resolution = g.resolution;
+  q.robot_radius_m = reference.robot_radius_m;
   std::vector<double> offsets;
   for (int j = 0; j < g.height; ++j) {
     for (int i = 0; i < g.width; ++i) {
       const Truth t = truth.at(i, j);
       const Cell c = map.at(i, j);
+      const bool drives = drivable && reference.drivable[g.index(i, j)];
       q.free_cells += t == Truth::kFree;
       q.wall_cells += t == Truth::kWall;
+      q.drivable_cells += drives;
       if (c == Cell::kUnknown) continue;
       ++q.known;
       q.known_free += t == Truth::kFree;
+      q.known_drivable += drives;
       if (c == Cell::kObstacle) {
         ++q.obstacle;
         if (t == Truth::kWall)
@@ -168,6 +195,7 @@ MapQuality evaluate(const ClassGrid& map, const hil::World& world, const Vec2& s
   }
   auto ratio = [](std::size_t a, std::size_t b) { return b ? static_cast<double>(a) / static_cast<double>(b) : 0.0; };
   q.coverage = ratio(q.known_free, q.free_cells);
+  q.drivable_coverage = ratio(q.known_drivable, q.drivable_cells);
   q.agreement = ratio(q.agree, q.known);
   q.false_obstacle_rate = ratio(q.false_obstacles, q.known);
   q.false_free_rate = ratio(q.false_free, q.known);
@@ -189,8 +217,11 @@ std::string to_text(const MapQuality& q) {
   o << "resolution          " << q.resolution << " m\n"
     << "truth               " << q.free_cells << " free cells (reachable), " << q.wall_cells << " wall cells\n"
     << "known cells         " << q.known << " (" << q.obstacle << " obstacle, " << q.clear << " clear)\n"
-    << "coverage            " << 100.0 * q.coverage << " % of the reachable free space known\n"
-    << "agreement           " << 100.0 * q.agreement << " % of known cells\n"
+    << "coverage            " << 100.0 * q.coverage << " % of the reachable free space known\n";
+  if (q.robot_radius_m > 0)
+    o << "drivable coverage   " << 100.0 * q.drivable_coverage << " % of the " << q.drivable_cells
+      << " free cells a robot of radius " << q.robot_radius_m << " m sweeps from the start\n";
+  o << "agreement           " << 100.0 * q.agreement << " % of known cells\n"
     << "false obstacles     " << q.false_obstacles << " (" << 100.0 * q.false_obstacle_rate << " % of known)\n"
     << "false free          " << q.false_free << " (" << 100.0 * q.false_free_rate << " % of known)\n"
     << "wall offset         mean " << q.wall_offset_mean_m << " m, p95 " << q.wall_offset_p95_m << " m, max "
@@ -255,6 +286,12 @@ nlohmann::json json_of(const MapQuality& q) {
   j["clear_cells"] = q.clear;
   j["known_free_cells"] = q.known_free;
   j["coverage"] = q.coverage;
+  if (q.robot_radius_m > 0) {
+    j["robot_radius_m"] = q.robot_radius_m;
+    j["drivable_cells"] = q.drivable_cells;
+    j["known_drivable_cells"] = q.known_drivable;
+    j["drivable_coverage"] = q.drivable_coverage;
+  }
   j["agreement"] = q.agreement;
   j["agree_cells"] = q.agree;
   j["false_obstacles"] = q.false_obstacles;

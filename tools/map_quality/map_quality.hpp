@@ -7,6 +7,8 @@
 //   - other: neither (inside furniture, outside the building).
 // Then, over the map's known cells (obstacle or clear):
 //   coverage        known cells of the free space / free cells
+//   drivable coverage (given a robot radius) known cells of the free space the robot's
+//                   body can sweep from the start / such cells (drivable_space.hpp)
 //   agreement       (obstacle on wall + clear on free) / known cells
 //   false obstacles obstacle on a non-wall cell;  false free: clear on a non-free cell
 //   wall offset     distance from each obstacle cell's centre to the nearest true wall
@@ -43,6 +45,9 @@ struct MapQuality {
   std::size_t known_free = 0;  // known cells in the truth's free space
   std::size_t agree = 0, false_obstacles = 0, false_free = 0;
   double coverage = 0, agreement = 0, false_obstacle_rate = 0, false_free_rate = 0;
+  double robot_radius_m = 0;  // 0: no drivable space (the fields below stay 0)
+  std::size_t drivable_cells = 0, known_drivable = 0;
+  double drivable_coverage = 0;
   double wall_offset_mean_m = 0, wall_offset_p95_m = 0, wall_offset_max_m = 0;
   double wall_offset_mean_cells() const { return wall_offset_mean_m / resolution; }
   double wall_offset_max_cells() const { return wall_offset_max_m / resolution; }
@@ -52,6 +57,18 @@ struct MapQuality {
 Vec2 default_start(const hil::World& world);
 
 MapQuality evaluate(const mapper::ClassGrid& map, const hil::World& world, const Vec2& start);
+
+/// The truth a map is scored against, for one world and one map geometry: built once and
+/// reused (the drivable space costs a fine raster). robot_radius_m 0: no drivable space.
+struct Reference {
+  TruthGrid truth;
+  std::vector<std::uint8_t> drivable;  // per cell, 1: free and drivable (empty without a radius)
+  double robot_radius_m = 0;
+};
+Reference make_reference(const hil::World& world, const mapper::GridGeometry& geometry, const Vec2& start,
+                         double robot_radius_m = 0);
+/// Throws std::invalid_argument when the map's geometry is not the reference's.
+MapQuality evaluate(const mapper::ClassGrid& map, const Reference& reference, const hil::World& world);
 
 std::string to_text(const MapQuality& q);
 std::string to_json(const MapQuality& q);

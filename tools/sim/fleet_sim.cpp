@@ -131,10 +131,25 @@ void FleetSim::explore_step() {
   }
 }
 
+// Scored against a reference built on the first call (a fine raster for the drivable
+// space: tens of ms, not every coverage record); rebuilt should the map's grid change.
+tools::MapQuality FleetSim::evaluate_map() const {
+  const mapper::ClassGrid& map = mapper_->classified();
+  const GridGeometry& g = map.geometry;
+  if (!reference_ || reference_->truth.geometry.width != g.width || reference_->truth.geometry.height != g.height ||
+      reference_->truth.geometry.resolution != g.resolution || reference_->truth.geometry.origin_x != g.origin_x ||
+      reference_->truth.geometry.origin_y != g.origin_y) {
+    double radius = 0;
+    for (const auto& r : robots_) radius = std::max(radius, r->body_radius());
+    reference_ = std::make_unique<tools::Reference>(
+        tools::make_reference(*worlds_.front(), g, tools::default_start(*worlds_.front()), radius));
+  }
+  return tools::evaluate(map, *reference_, *worlds_.front());
+}
+
 void FleetSim::record_coverage() {
-  const tools::MapQuality q =
-      tools::evaluate(mapper_->classified(), *worlds_.front(), tools::default_start(*worlds_.front()));
-  coverage_.push_back({nanos_to_seconds(now_), q.coverage, q.agreement});
+  const tools::MapQuality q = evaluate_map();
+  coverage_.push_back({nanos_to_seconds(now_), q.coverage, q.agreement, q.drivable_coverage});
 }
 
 FleetSim::~FleetSim() = default;
@@ -326,7 +341,7 @@ FleetSummary FleetSim::summary(double wall_seconds) const {
     rs.global_rmse_m = ng ? std::sqrt(sg / static_cast<double>(ng)) : 0;
     s.robots.push_back(rs);
   }
-  s.map = tools::evaluate(mapper_->classified(), *worlds_.front(), tools::default_start(*worlds_.front()));
+  s.map = evaluate_map();
   s.map_scans = mapper_->counters().scans_inserted;
   s.map_scans_unplaced = map_scans_unplaced_;
   const std::vector<Vec2> poles = worlds_.front()->poles();

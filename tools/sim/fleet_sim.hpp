@@ -69,6 +69,7 @@ inline void set_tool_speeds(FleetSimConfig* cfg) {
 struct CoverageSample {
   double t_s = 0;
   double coverage = 0, agreement = 0;
+  double drivable = 0;  // coverage of the space the robots' bodies can sweep (tools/map_quality/drivable_space.hpp)
 };
 
 /// The coverage levels whose first time the summary reports.
@@ -154,6 +155,7 @@ class FleetSim {
   void step_robots();
   void explore_step();
   void record_coverage();
+  tools::MapQuality evaluate_map() const;
 
   FleetSimConfig cfg_;
   std::vector<std::unique_ptr<hil::World>> worlds_;  // one per robot
@@ -175,6 +177,7 @@ class FleetSim {
   bool explored_ = false;
   Nanos next_coverage_ = 0;
   std::vector<CoverageSample> coverage_;
+  mutable std::unique_ptr<tools::Reference> reference_;  // the truth the map is scored against: a cache, built once
 };
 
 }  // namespace cairn::sim

@@ -62,6 +62,8 @@ nlohmann::json to_json(const sim::FleetSummary& s, bool with_wall_time) {
                        {{"scans_inserted", s.map_scans},
                         {"scans_unplaced", s.map_scans_unplaced},
                         {"coverage", s.map.coverage},
+                        {"drivable_coverage", s.map.drivable_coverage},
+                        {"robot_radius_m", s.map.robot_radius_m},
                         {"agreement", s.map.agreement},
                         {"false_obstacles", s.map.false_obstacles},
                         {"false_free", s.map.false_free},
@@ -173,9 +175,9 @@ void write_outputs(const std::string& dir, const sim::FleetSim& fleet, const sim
   mapper::write_landmarks_json(fleet.landmarks(), dir + "/landmarks.json");
   if (!s.coverage.empty()) {
     std::ofstream cov(dir + "/coverage.csv");
-    cov << "t_s,coverage,agreement\n";
+    cov << "t_s,coverage,agreement,drivable_coverage\n";
     for (const auto& c : s.coverage) {
-      std::snprintf(line, sizeof line, "%.3f,%.6f,%.6f\n", c.t_s, c.coverage, c.agreement);
+      std::snprintf(line, sizeof line, "%.3f,%.6f,%.6f,%.6f\n", c.t_s, c.coverage, c.agreement, c.drivable);
       cov << line;
     }
     if (!cov) throw std::runtime_error("cannot write " + dir + "/coverage.csv");
@@ -222,7 +224,8 @@ int run(const sim::FleetSimConfig& cfg, const std::string& out, bool json) {
     std::printf("mean NIS of fused observations (about 2 if their covariances are right): landmarks %s, sightings %s\n",
                 nis(s.landmark_nis_mean).c_str(), nis(s.sighting_nis_mean).c_str());
     if (!s.coverage.empty()) {
-      std::printf("coverage %.3f, agreement %.3f; time to", s.map.coverage, s.map.agreement);
+      std::printf("coverage %.3f (of the space the robots can drive through: %.3f), agreement %.3f; time to",
+                  s.map.coverage, s.map.drivable_coverage, s.map.agreement);
       for (std::size_t k = 0; k < 4; ++k) {
         if (s.time_to_coverage[k]) {
           std::printf(" %.0f%%: %.0f s", sim::kCoverageLevels[k] * 100, *s.time_to_coverage[k]);
