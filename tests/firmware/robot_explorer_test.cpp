@@ -363,6 +363,37 @@ TEST(RobotExplorer, ARobotWhoseRightIsClosedYieldsAndGoesOnWhenTheBarrierEnds) {
   EXPECT_TRUE(north);
 }
 
+// Yielding is told apart from a dead end: with the same barrier up, a goal no path reaches
+// even without barriers (inside the corridor's south wall) is a failed plan, not a yield
+// (the base's monitor must take that task back). And a new task ends a yield at once.
+TEST(RobotExplorer, AGoalNoPathReachesIsAFailureNotAYieldAndANewTaskEndsAYield) {
+  GlobalMap map(map_cfg(4));
+  fill(&map, 2, 2, corridor);
+  RobotExploreConfig cfg = explore_cfg();
+  cfg.bid_period = 600 * kNanosPerSecond;
+  RobotExplorer ex(cfg, 5, map_cfg(4).max_cells);
+  msg::Bid bid;
+  msg::TaskAssignment route;
+  const Pose2 at{2.0, 1.4, 0};
+  (void)ex.step(map, at, 0, &bid, &route);
+  ex.on_task(task(31, msg::TaskKind::kGoto, 6.0, 1.9));
+  ASSERT_TRUE(ex.step(map, at, 10 * kNanosPerMilli, &bid, &route).route);
+  Nanos t = 20 * kNanosPerMilli;
+  for (; ex.counters().blocked_marks == 0 && t < 3 * kNanosPerSecond; t += 10 * kNanosPerMilli)
+    ex.on_safety(StopReason::kProtectiveField, Vec2(0.45, 0.0), at, t);
+  ASSERT_EQ(ex.counters().blocked_marks, 1u);
+  ASSERT_TRUE(ex.step(map, at, t, &bid, &route).route);
+  ASSERT_TRUE(ex.yielding());
+  ex.on_safety(StopReason::kNone, Vec2(0.45, 0.0), at, t);
+  ex.on_task(task(32, msg::TaskKind::kGoto, 6.0, 0.2));
+  EXPECT_FALSE(ex.yielding()) << "a new task ends the yield";
+  ASSERT_TRUE(ex.step(map, at, t + 10 * kNanosPerMilli, &bid, &route).route);
+  EXPECT_EQ(route.kind, msg::TaskKind::kIdle);
+  EXPECT_FALSE(ex.yielding()) << "no path with or without the barrier: a dead end";
+  EXPECT_EQ(ex.counters().plan_failures, 1u);
+  EXPECT_EQ(ex.counters().yields, 1u);
+}
+
 // The marks are stamped into a copy of the classified map for each plan: an expired mark
 // no longer closes the way at the next replan, even before the next period classifies the
 // map again (stamped into the map itself, marks piled up between periods).
