@@ -16,7 +16,7 @@ core=(
   libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libpng-dev zlib1g-dev libboost-dev gnuplot-nox
   googletest libgtest-dev libgmock-dev libbenchmark-dev
   libsystemd-dev dpkg-dev openssh-client openssh-server
-  mount fdisk e2fsprogs xz-utils
+  mount fdisk e2fsprogs xz-utils openssl
 )
 extra=()
 vm_kernel=0

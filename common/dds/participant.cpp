@@ -8,8 +8,22 @@
 namespace cairn::dds {
 
 namespace {
+struct Domain {
+  std::string profile;     // the profile it was created with
+  dds_entity_t handle = 0;  // 0: created elsewhere (not ours to delete)
+  int users = 0;           // live Participants on it
+};
 std::mutex g_domains_mutex;
-std::map<std::uint32_t, std::string> g_domains;  // domain id -> profile name it was created with
+std::map<std::uint32_t, Domain> g_domains;  // domain id -> the domain this class created
+
+// Drops one user of the domain; the last deletes it.
+void release(std::uint32_t id) {
+  std::lock_guard lock(g_domains_mutex);
+  const auto it = g_domains.find(id);
+  if (it == g_domains.end() || --it->second.users > 0) return;
+  if (it->second.handle > 0) dds_delete(it->second.handle);
+  g_domains.erase(it);
+}
 }  // namespace
 
 Participant::Participant(const DdsProfile& profile) : profile_(profile) {
@@ -21,16 +35,23 @@ Participant::Participant(const DdsProfile& profile) : profile_(profile) {
       if (d < 0 && d != DDS_RETCODE_PRECONDITION_NOT_MET) {
         check(d, "dds_create_domain(" + std::to_string(profile.domain) + ", profile " + profile.name + ")");
       }
-      g_domains[profile.domain] = profile.name;
-    } else if (it->second != profile.name) {
-      throw DdsError("Participant: domain " + std::to_string(profile.domain) + " already runs profile " + it->second +
-                         ", cannot also use " + profile.name,
+      it = g_domains.emplace(profile.domain, Domain{profile.name, d > 0 ? d : 0, 0}).first;
+    } else if (it->second.profile != profile.name) {
+      throw DdsError("Participant: domain " + std::to_string(profile.domain) + " already runs profile " +
+                         it->second.profile + ", cannot also use " + profile.name,
                      DDS_RETCODE_PRECONDITION_NOT_MET);
     }
+    ++it->second.users;
   }
   const dds_entity_t pp = dds_create_participant(profile.domain, nullptr, nullptr);
+  if (pp < 0 && !profile.xml.empty()) release(profile.domain);
   check(pp, "dds_create_participant(domain " + std::to_string(profile.domain) + ", profile " + profile.name + ")");
   pp_ = Entity(pp);
+}
+
+Participant::~Participant() {
+  pp_.reset();
+  if (!profile_.xml.empty()) release(profile_.domain);
 }
 
 std::string Participant::describe() const {

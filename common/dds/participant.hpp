@@ -40,6 +40,12 @@ class Participant {
  public:
   /// Creates (once per process and domain) the domain with the profile's configuration, then the participant.
   explicit Participant(const DdsProfile& profile);
+  /// The last participant of a domain this class created deletes the domain: its threads
+  /// stop before the process exits (with the security plugins loaded, a domain left
+  /// running crashed at exit while the libraries were unloaded).
+  ~Participant();
+  Participant(const Participant&) = delete;
+  Participant& operator=(const Participant&) = delete;
   dds_entity_t handle() const { return pp_.get(); }
   const DdsProfile& profile() const { return profile_; }
   /// "profile loopback (interface lo, ...), domain 0" — for the start-up log line.

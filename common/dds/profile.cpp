@@ -1,8 +1,13 @@
 #include "common/dds/profile.hpp"
 
+#include <dds/dds.h>
+#include <dlfcn.h>
+#include <unistd.h>
+
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 
 #include "common/config.hpp"
 #include "common/dds/loopback_xml.hpp"
@@ -33,6 +38,72 @@ DdsProfile lan_profile(const std::string& interface_name, const std::vector<std:
   return {"lan", xml.str(), desc.str(), domain, interface_name == "lo"};
 }
 
+namespace {
+
+// Debian installs the security plugins beside libddsc, in libddsc0debian/; elsewhere they
+// are on the library path under their plain names.
+std::string plugin(const char* name) {
+  Dl_info info{};
+  if (dladdr(reinterpret_cast<void*>(&dds_create_participant), &info) != 0 && info.dli_fname) {
+    std::string dir(info.dli_fname);
+    dir.erase(dir.find_last_of('/') + 1);
+    const std::string path = dir + "libddsc0debian/lib" + name + ".so";
+    if (access(path.c_str(), R_OK) == 0) return path;
+  }
+  return name;
+}
+
+std::string xml_escaped(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string security_xml(const std::string& member_dir) {
+  if (member_dir.empty()) throw std::invalid_argument("DDS security: no keys directory given");
+  const std::string dir = member_dir.back() == '/' ? member_dir : member_dir + "/";
+  std::string missing;
+  for (const char* f : {"cert.pem", "key.pem", "ca.pem", "governance.p7s", "permissions.p7s", "crl.pem"})
+    if (access((dir + f).c_str(), R_OK) != 0) missing += std::string(missing.empty() ? "" : ", ") + f;
+  if (!missing.empty())
+    throw std::invalid_argument("DDS security: the keys directory " + member_dir + " lacks (or cannot read) " + missing +
+                                "; scripts/fleet-keys.sh add makes one (docs/security.md)");
+  const std::string f = "file:" + xml_escaped(dir);
+  std::ostringstream x;
+  x << "<Security><Authentication><Library path=\"" << xml_escaped(plugin("dds_security_auth"))
+    << "\" initFunction=\"init_authentication\" finalizeFunction=\"finalize_authentication\"/>"
+    << "<IdentityCertificate>" << f << "cert.pem</IdentityCertificate><IdentityCA>" << f << "ca.pem</IdentityCA>"
+    << "<PrivateKey>" << f << "key.pem</PrivateKey><CRL>" << f << "crl.pem</CRL></Authentication>"
+    << "<AccessControl><Library path=\"" << xml_escaped(plugin("dds_security_ac"))
+    << "\" initFunction=\"init_access_control\" finalizeFunction=\"finalize_access_control\"/>"
+    << "<PermissionsCA>" << f << "ca.pem</PermissionsCA><Governance>" << f << "governance.p7s</Governance>"
+    << "<Permissions>" << f << "permissions.p7s</Permissions></AccessControl>"
+    << "<Cryptographic><Library path=\"" << xml_escaped(plugin("dds_security_crypto"))
+    << "\" initFunction=\"init_crypto\" finalizeFunction=\"finalize_crypto\"/></Cryptographic></Security>";
+  return x.str();
+}
+
+DdsProfile secured(const DdsProfile& base, const std::string& member_dir) {
+  const std::string security = security_xml(member_dir);
+  DdsProfile p = base;
+  const std::size_t at = p.xml.rfind("</Domain>");
+  if (at == std::string::npos) throw std::invalid_argument("DDS security: profile " + base.name + " has no <Domain> to secure");
+  p.xml.insert(at, security);
+  p.name = base.name == "loopback" ? "secure-loopback" : "secure";
+  p.description = base.description + "; DDS Security (PKI-DH, access control, AES-GCM) with the keys in " + member_dir;
+  return p;
+}
+
 DdsProfile profile_from_config(const std::optional<ConfigSection>& s) {
   const char* env = std::getenv("CYCLONEDDS_URI");
   if (!s) {
@@ -46,18 +117,31 @@ DdsProfile profile_from_config(const std::optional<ConfigSection>& s) {
     if (!env || !*env) s->fail("profile", "profile \"env\" needs CYCLONEDDS_URI to be set");
     return {"env", "", std::string("CYCLONEDDS_URI=") + env, domain, false};
   }
-  if (name == "lan") {
+  if (name == "lan" || name == "secure") {
     const std::string iface = s->string("interface");
     const auto peers = s->strings("peers");
-    if (peers.empty()) s->fail("peers", "profile \"lan\" needs at least one peer address");
-    return lan_profile(iface, peers, domain);
+    if (peers.empty()) s->fail("peers", "profile \"" + name + "\" needs at least one peer address");
+    if (name == "lan") return lan_profile(iface, peers, domain);
+    try {
+      return secured(lan_profile(iface, peers, domain), s->string("keys"));
+    } catch (const std::invalid_argument& e) {
+      s->fail("keys", e.what());
+    }
+  }
+  if (name == "secure-loopback") {
+    try {
+      return secured(loopback_profile(domain), s->string("keys"));
+    } catch (const std::invalid_argument& e) {
+      s->fail("keys", e.what());
+    }
   }
   if (name.size() > 4 && name.substr(name.size() - 4) == ".xml") {
     std::ifstream in(name);
     if (!in) s->fail("profile", "cannot read the DDS profile file " + name);
     return {name, "file://" + name, "configuration file " + name, domain, false};
   }
-  s->fail("profile", "expected \"loopback\", \"lan\", \"env\" or a path ending in .xml, got \"" + name + "\"");
+  s->fail("profile", "expected \"loopback\", \"lan\", \"secure\", \"secure-loopback\", \"env\" or a path ending in .xml, got \"" +
+                         name + "\"");
 }
 
 }  // namespace cairn::dds

@@ -2,6 +2,8 @@
 //
 //   loopback  (default) interface lo, no multicast, peer 127.0.0.1 — config/dds/loopback.xml
 //   lan       explicit interface and unicast peers from the program's [dds] section
+//   secure    lan with DDS Security: the fleet member's keys from [dds] keys (docs/security.md)
+//   secure-loopback  loopback with DDS Security (the tests' secure fleet)
 //   env       whatever CYCLONEDDS_URI says (explicitly requested only)
 //   PATH.xml  a Cyclone configuration file
 //
@@ -34,7 +36,15 @@ DdsProfile loopback_profile(std::uint32_t domain = 0);
 DdsProfile lan_profile(const std::string& interface_name, const std::vector<std::string>& peers,
                        std::uint32_t domain = 0);
 
-/// Reads the optional [dds] section: profile, domain, interface, peers.
+/// DDS Security for one member of the fleet (scripts/fleet-keys.sh): `member_dir` holds
+/// cert.pem, key.pem, ca.pem, governance.p7s, permissions.p7s and crl.pem. PKI-DH
+/// authentication, access control by the signed permissions, AES-GCM for what the
+/// governance protects (every topic). Throws std::invalid_argument naming what is missing.
+std::string security_xml(const std::string& member_dir);
+/// `base` (loopback or lan) with security_xml(member_dir) in its domain.
+DdsProfile secured(const DdsProfile& base, const std::string& member_dir);
+
+/// Reads the optional [dds] section: profile, domain, interface, peers, keys.
 DdsProfile profile_from_config(const std::optional<ConfigSection>& dds_section);
 
 }  // namespace cairn::dds

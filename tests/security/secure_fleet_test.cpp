@@ -1,0 +1,160 @@
+// The secure fleet on the loopback interface (issue 20 items 1, 2 and 5, first slice;
+// docs/security.md): keys made by scripts/fleet-keys.sh, participants made by
+// dds::secured() with a member's directory. Each case runs cairn-test-secure-probe
+// processes (one identity per process: Cyclone configures a domain once per process)
+// and checks what passes: the base's tasks reach a robot and a robot's status the base;
+// a participant without a certificate sees nothing and commands nothing; a robot cannot
+// write tasks nor the viewer anything; a revoked robot and tampered governance are refused.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <string>
+
+#include "common/dds/profile.hpp"
+#include "tests/support/subprocess.hpp"
+
+namespace fs = std::filesystem;
+using cairn::testing::Subprocess;
+using namespace std::chrono_literals;
+
+namespace {
+
+const std::string kProbe = CAIRN_SECURE_PROBE_BIN;
+const std::string kKeys = std::string(CAIRN_SOURCE_DIR_STR) + "/scripts/fleet-keys.sh";
+
+std::string read_file(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+int run(const std::string& cmd) { return std::system((cmd + " > /dev/null 2>&1").c_str()); }
+
+// One fleet for the whole suite: robots 1 and 2, the base, a viewer; robot 2 revoked; a
+// copy of the base's keys whose signed governance was edited.
+const fs::path& fleet() {
+  static const fs::path dir = [] {
+    const fs::path d = fs::temp_directory_path() / ("cairn-secure-fleet-" + std::to_string(getpid()));
+    fs::remove_all(d);
+    const std::string k = kKeys + " ";
+    EXPECT_EQ(run(k + "init " + d.string()), 0);
+    for (const char* who : {"robot 1", "robot 2", "base", "viewer"}) EXPECT_EQ(run(k + "add " + d.string() + " " + who), 0);
+    EXPECT_EQ(run(k + "revoke " + d.string() + " robot-2"), 0);
+    fs::copy(d / "members" / "base", d / "tampered");
+    std::string g = read_file(d / "tampered" / "governance.p7s");
+    const std::size_t at = g.find("<data_protection_kind>ENCRYPT");
+    EXPECT_NE(at, std::string::npos);
+    g.replace(at, std::string("<data_protection_kind>ENCRYPT").size(), "<data_protection_kind>NONE");
+    std::ofstream(d / "tampered" / "governance.p7s") << g;
+    return d;
+  }();
+  return dir;
+}
+
+std::string member(const std::string& name) { return (fleet() / "members" / name).string(); }
+
+struct Outcome {
+  int status;
+  std::string output;
+};
+
+// Two probes side by side; both are waited for.
+std::pair<Outcome, Outcome> pair(const std::vector<std::string>& a, const std::vector<std::string>& b) {
+  std::vector<std::string> av{kProbe}, bv{kProbe};
+  av.insert(av.end(), a.begin(), a.end());
+  bv.insert(bv.end(), b.begin(), b.end());
+  Subprocess pa(av), pb(bv);
+  const int sa = pa.wait(30s), sb = pb.wait(30s);
+  return {{sa, pa.output()}, {sb, pb.output()}};
+}
+
+Outcome one(const std::vector<std::string>& a) {
+  std::vector<std::string> av{kProbe};
+  av.insert(av.end(), a.begin(), a.end());
+  Subprocess p(av);
+  const int s = p.wait(30s);
+  return {s, p.output()};
+}
+
+TEST(SecureFleet, TheBasesTasksReachARobotAndARobotsStatusTheBase) {
+  auto [pub, sub] = pair({member("base"), "pub", "task", "8"}, {member("robot-1"), "sub", "task", "8"});
+  EXPECT_EQ(sub.status, 0) << sub.output;
+  EXPECT_EQ(pub.status, 0) << pub.output;
+  auto [spub, ssub] = pair({member("robot-1"), "pub", "status", "8"}, {member("base"), "sub", "status", "8"});
+  EXPECT_EQ(ssub.status, 0) << ssub.output;
+  EXPECT_EQ(spub.status, 0) << spub.output;
+}
+
+TEST(SecureFleet, AParticipantWithoutACertificateSeesNothingAndCommandsNothing) {
+  auto [pub, eavesdropper] = pair({member("base"), "pub", "task", "4"}, {"none", "sub", "task", "4"});
+  EXPECT_EQ(eavesdropper.status, 5) << eavesdropper.output;
+  EXPECT_EQ(pub.status, 5) << "the base matched a reader without a certificate: " << pub.output;
+  auto [intruder, robot] = pair({"none", "pub", "task", "4"}, {member("robot-1"), "sub", "task", "4"});
+  EXPECT_EQ(robot.status, 5) << "a task from an intruder arrived: " << robot.output;
+}
+
+TEST(SecureFleet, ARobotCannotWriteTasksNorTheViewerAnything) {
+  const Outcome robot = one({member("robot-1"), "pub", "task", "2"});
+  EXPECT_EQ(robot.status, 4) << robot.output;
+  EXPECT_NE(robot.output.find("writer refused"), std::string::npos) << robot.output;
+  const Outcome viewer = one({member("viewer"), "pub", "status", "2"});
+  EXPECT_EQ(viewer.status, 4) << viewer.output;
+  const Outcome reads = one({member("robot-1"), "sub", "bid_is_not_a_probe_topic", "1"});
+  EXPECT_EQ(reads.status, 2);  // the probe's own argument check, so a typo cannot pass as a refusal
+}
+
+TEST(SecureFleet, ARevokedRobotIsRefusedByTheBase) {
+  const std::string revoked = (fleet() / "revoked" / "robot-2").string();
+  auto [pub, base] = pair({revoked, "pub", "status", "4", "2"}, {member("base"), "sub", "status", "4"});
+  EXPECT_EQ(base.status, 5) << "the revoked robot's status arrived: " << base.output;
+  EXPECT_EQ(pub.status, 5) << pub.output;
+}
+
+TEST(SecureFleet, TamperedGovernanceIsRefused) {
+  const Outcome o = one({(fleet() / "tampered").string(), "sub", "task", "2"});
+  EXPECT_EQ(o.status, 3) << o.output;
+}
+
+TEST(SecureFleet, AKeysDirectoryWithoutItsFilesIsAClearError) {
+  try {
+    (void)cairn::dds::secured(cairn::dds::loopback_profile(), (fleet() / "ca").string());
+    FAIL() << "accepted a directory without a member's files";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("cert.pem"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("permissions.p7s"), std::string::npos) << e.what();
+  }
+}
+
+// Every Cairn topic has exactly one publishing role in the keys script (robot or base),
+// so a topic added to common/dds/topics.hpp without a permission fails here.
+TEST(SecureFleet, EveryTopicHasOnePublishingRoleInTheKeysScript) {
+  const std::string topics = read_file(std::string(CAIRN_SOURCE_DIR_STR) + "/common/dds/topics.hpp");
+  const std::string script = read_file(kKeys);
+  std::set<std::string> names;
+  const std::regex topic_re("CAIRN_TOPIC\\(\\w+, \"(\\w+)\"\\)");
+  for (std::sregex_iterator it(topics.begin(), topics.end(), topic_re), end; it != end; ++it) names.insert((*it)[1]);
+  ASSERT_GE(names.size(), 11u);
+  auto list = [&](const std::string& var) {
+    const std::regex re(var + "=\"([^\"]*)\"");
+    std::smatch m;
+    EXPECT_TRUE(std::regex_search(script, m, re)) << var;
+    std::set<std::string> s;
+    std::istringstream in(m[1]);
+    for (std::string w; in >> w;) s.insert(w);
+    return s;
+  };
+  const std::set<std::string> robot = list("robot_publishes"), base = list("base_publishes");
+  for (const std::string& t : names) EXPECT_EQ(robot.count(t) + base.count(t), 1u) << t;
+  for (const std::string& t : robot) EXPECT_EQ(names.count(t), 1u) << "not a Cairn topic: " << t;
+  for (const std::string& t : base) EXPECT_EQ(names.count(t), 1u) << "not a Cairn topic: " << t;
+}
+
+}  // namespace
