@@ -5,17 +5,20 @@
 # Modbus power boards), each run by the production cairn-robot; cairn-base fuses them,
 # builds the global map and assigns frontiers from the robots' bids, all over DDS on the
 # loopback-only profile. It ends when the base reports the office explored, or at the
-# time cap. Robot 2's e-stop is pressed for 3 s at 30 s.
-#   scripts/demo.sh [--duration SECONDS] [--robots N]   (defaults: cap 240 s, 3 robots)
+# time cap. Robot 2's e-stop is pressed for 3 s at 30 s. cairn-record records every topic
+# into hil-run/cairn.mcap (docs/recording.md); a failed recording fails the demo.
+#   scripts/demo.sh [--duration SECONDS] [--robots N] [--no-record]   (defaults: cap 240 s, 3 robots)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 duration=240
 robots=3
+record=1
 while (($#)); do
   case "$1" in
     --duration) duration=$2; shift 2 ;;
     --robots) robots=$2; shift 2 ;;
-    -h|--help) sed -n '2,9p' "$0"; exit 0 ;;
+    --no-record) record=0; shift ;;
+    -h|--help) sed -n '2,11p' "$0"; exit 0 ;;
     *) echo "demo: unknown option '$1'" >&2; exit 2 ;;
   esac
 done
@@ -30,7 +33,8 @@ rm -rf "$run"
 mkdir -p "$run"
 
 pids=()
-cleanup() { kill -INT "${pids[@]}" 2>/dev/null || true; wait 2>/dev/null || true; }
+recorder=()  # apart from pids: the script stops it last, after the robots and the bench
+cleanup() { kill -INT "${pids[@]}" "${recorder[@]}" 2>/dev/null || true; wait 2>/dev/null || true; }
 trap cleanup EXIT
 trap 'cleanup; exit 130' INT TERM
 
@@ -43,6 +47,15 @@ $B/hil/cairn-hil robots --world hil/worlds/office.world --count "$robots" --temp
 pids+=($!)
 for _ in $(seq 100); do grep -q "cairn-hil: ready" "$run/hil.log" 2>/dev/null && break; sleep 0.1; done
 grep -q "cairn-hil: ready" "$run/hil.log" || { echo "demo: the HIL bench did not come up" >&2; exit 1; }
+
+# The recorder before the base and the robots, so it has every message from the start.
+if ((record)); then
+  $B/tools/recording/cairn-record --config config/base-hil.toml -o "$run/cairn.mcap" --progress 30 >"$run/record.log" 2>&1 &
+  recorder=($!)
+  for _ in $(seq 50); do grep -q "record: recording" "$run/record.log" 2>/dev/null && break; sleep 0.1; done
+  grep -q "record: recording" "$run/record.log" || { echo "demo: cairn-record did not start:" >&2; cat "$run/record.log" >&2; exit 1; }
+  echo "demo: recording every topic to $run/cairn.mcap"
+fi
 
 $B/basestation/cairn-base --config config/base-hil.toml --duration "$duration" 2>"$run/base.err" > >(tee "$run/base.out") &
 base=$!
@@ -95,6 +108,12 @@ sleep 2
 # The bench last: its ground truth file is complete only once it has exited.
 kill -INT "${pids[0]}" 2>/dev/null || true
 wait "${pids[0]}" 2>/dev/null || true
+record_status=0
+if ((record)); then  # SIGINT: the recorder writes its summary and footer and exits 0, or says why not
+  kill -INT "${recorder[0]}" 2>/dev/null || true
+  wait "${recorder[0]}" || record_status=$?
+  recorder=()
+fi
 echo
 echo "demo: robots' own view (last progress lines; full logs in $run/robot-N.log):"
 for id in $(seq "$robots"); do
@@ -113,4 +132,13 @@ else
     --trajectories "$run/map/trajectories.csv" --ground-truth "$run/truth.txt" | sed 's/^/  /' ||
     echo "demo: cairn-map-quality could not score the map (its message is above)"
 fi
+if ((record)); then
+  if ((record_status == 0)); then
+    echo "demo: $(tail -n1 "$run/record.log")"
+    echo "demo: open $run/cairn.mcap in Foxglove, or replay it with $B/tools/recording/cairn-replay (docs/recording.md)"
+  else
+    echo "demo: the recording FAILED (exit $record_status): $(tail -n1 "$run/record.log")" >&2
+  fi
+fi
 echo "demo: done (ground truth in $run/truth.txt)"
+exit $((record_status != 0))

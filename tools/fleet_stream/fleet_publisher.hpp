@@ -37,6 +37,10 @@ class FleetPublisher {
   }
 
   bool wait_for_base(Nanos timeout) { return odom_.wait_for_readers(1, timeout); }
+  /// Until both writers have n readers; false on timeout.
+  bool wait_for_readers(std::uint32_t n, Nanos timeout) {
+    return odom_.wait_for_readers(n, timeout) && feat_.wait_for_readers(n, timeout);
+  }
   std::uint64_t odometry() const { return odometry_; }
   std::uint64_t features() const { return features_; }
 
