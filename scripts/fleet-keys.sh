@@ -6,6 +6,7 @@
 #   scripts/fleet-keys.sh add DIR robot ID                   a robot (ID 1..250): robot-ID
 #   scripts/fleet-keys.sh add DIR base [NAME]                the base station (default name: base)
 #   scripts/fleet-keys.sh add DIR viewer [NAME]              a read-only member (default: viewer)
+#   scripts/fleet-keys.sh add DIR bench NAME                 cairn-bench-dds's topics only (the cost of security)
 #   scripts/fleet-keys.sh revoke DIR NAME                    NAME leaves the fleet: its certificate is revoked
 #   scripts/fleet-keys.sh list DIR                           the members and their roles
 #
@@ -30,6 +31,7 @@ command -v openssl >/dev/null || die "openssl is needed (apt-get install openssl
 robot_publishes="cairn_robot_status cairn_odometry cairn_laser_scan cairn_features cairn_bid"
 robot_reads="cairn_task cairn_pose_correction cairn_safety_reset cairn_map_tile cairn_feature_map"
 base_publishes="cairn_task cairn_pose_correction cairn_safety_reset cairn_map_tile cairn_feature_map cairn_visit_request"
+bench_topics="bench_ping bench_pong bench_data"  # tests/bench/dds_bench.cpp
 
 org="Cairn fleet"
 subject() { echo "/O=$org/CN=$1"; }
@@ -80,6 +82,18 @@ EOF
 $(topics_xml "$base_publishes")
         </topics></publish>
         <subscribe><topics><topic>*</topic></topics></subscribe>
+      </allow_rule>
+EOF
+    ;;
+    bench) cat <<EOF
+      <allow_rule>
+        <domains><id>$domain</id></domains>
+        <publish><topics>
+$(topics_xml "$bench_topics")
+        </topics></publish>
+        <subscribe><topics>
+$(topics_xml "$bench_topics")
+        </topics></subscribe>
       </allow_rule>
 EOF
     ;;
@@ -196,7 +210,8 @@ EOF
         name="robot-$id" ;;
       base) name=${2:-base} ;;
       viewer) name=${2:-viewer} ;;
-      *) die "add: the role must be robot, base or viewer, not '$role'" ;;
+      bench) name=${2:?add bench NAME} ;;
+      *) die "add: the role must be robot, base, viewer or bench, not '$role'" ;;
     esac
     [[ $name =~ ^[A-Za-z0-9._-]+$ ]] || die "add: a name is letters, digits, '.', '_' or '-', not '$name'"
     m="$dir/members/$name"

@@ -6,6 +6,8 @@
 //   cairn-bench-dds ping --domain D --duration S      -> latency line
 //   cairn-bench-dds sub  --domain D --duration S      -> throughput line
 //   cairn-bench-dds pub  --domain D --duration S
+//   ... --keys DIR   on the secure-loopback profile with a fleet member's keys (role bench:
+//                    scripts/fleet-keys.sh add DIR bench NAME; tests/bench/dds_security_cost.sh)
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
@@ -138,9 +140,12 @@ int main(int argc, char** argv) {
   app.add_option("mode", mode, "ping | pong | pub | sub")->required()->check(CLI::IsMember({"ping", "pong", "pub", "sub"}));
   app.add_option("--domain", domain, "DDS domain id")->check(CLI::Range(0, 230));
   app.add_option("--duration", duration, "seconds");
+  std::string keys;
+  app.add_option("--keys", keys, "a fleet member's keys directory (role bench): DDS Security on loopback");
   CLI11_PARSE(app, argc, argv);
   try {
-    Participant pp(loopback_profile(static_cast<std::uint32_t>(domain)));
+    const DdsProfile plain = loopback_profile(static_cast<std::uint32_t>(domain));
+    Participant pp(keys.empty() ? plain : secured(plain, keys));
     if (mode == "ping") return ping(pp, duration);
     if (mode == "pong") return pong(pp, duration);
     if (mode == "pub") return pub(pp, duration);
