@@ -64,6 +64,10 @@ void WebState::on_command_result(std::uint64_t id, const WebVisit& visit, std::s
 }
 
 std::string WebState::state_json(Nanos now, const Fleet& fleet, const Fusion* fusion, const ExploreNode* explore) {
+  // Rows the fleet dropped (it bounds unlisted robots) are dropped here too: ids cycled by
+  // a hostile publisher cannot grow these maps.
+  std::erase_if(status_, [&](const auto& kv) { return !fleet.robots().contains(kv.first); });
+  std::erase_if(trails_, [&](const auto& kv) { return !fleet.robots().contains(kv.first); });
   json robots = json::array();
   msg::PoseCorrection c;
   for (const auto& [id, e] : fleet.robots()) {
