@@ -2,7 +2,7 @@
 // drive circles of 1 m in a walled 8 m x 6 m room ([-4, 4] x [-3, 3] m, global frame),
 // publishing what cairn-robot publishes to the base: RobotStatus (5 Hz), exact odometry
 // (20 Hz) and 360-beam scans ray-cast against the walls (5 Hz). The walls are where the
-// test looks for them on the page's canvas. Runs until SIGINT/SIGTERM.
+// test looks for them on the page's canvas. Runs until SIGINT/SIGTERM or --duration.
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
@@ -40,7 +40,9 @@ double wall_range(const Vec2& p, double a) {
 int main(int argc, char** argv) {
   CLI::App app{"cairn-test-room-robots: two fake robots in a walled room, over DDS (test support)"};
   int domain = 0;
+  double duration_s = 60;
   app.add_option("--domain", domain)->required();
+  app.add_option("--duration", duration_s, "stop after this many seconds (a test that dies leaves no robots behind)");
   CLI11_PARSE(app, argc, argv);
   install_shutdown_handlers();
   dds::Participant pp(dds::loopback_profile(static_cast<std::uint32_t>(domain)));
@@ -57,7 +59,8 @@ int main(int argc, char** argv) {
   Pose2 local[kRobots];  // each robot's pose in its local frame (its start), exact
   std::uint32_t seq = 0;
   Nanos next = t_start;
-  while (!shutdown_requested()) {
+  const Nanos t_end = t_start + seconds_to_nanos(duration_s);
+  while (!shutdown_requested() && clock.now() < t_end) {
     next += period;
     clock.sleep_until(next);
     const Nanos t1 = clock.now();

@@ -72,6 +72,8 @@ function upgradeStatus(port, target) {
 }
 
 process.on("unhandledRejection", (e) => fatal(`unexpected: ${e && e.stack ? e.stack : e}`));
+// Whatever ends this process (a thrown error included), its children end with it.
+process.on("exit", () => { for (const c of children) if (c.exitCode === null) c.kill("SIGKILL"); });
 setTimeout(() => fatal("the whole test took over 50 s"), 50000).unref();
 
 fs.mkdirSync(out, { recursive: true });
@@ -80,7 +82,7 @@ const runDir = fs.mkdtempSync(path.join(out, "run-"));
 const config = path.join(runDir, "base.toml");
 fs.writeFileSync(config, fs.readFileSync(args.config, "utf8").replaceAll("@DOMAIN@", String(domain)).replaceAll("@DIR@", runDir));
 
-start(args.robots, ["--domain", String(domain)], "robots");
+start(args.robots, ["--domain", String(domain), "--duration", "60"], "robots");
 const base = start(args.base, ["-c", config, "--duration", "60"], "base");
 const port = Number((await waitForOutput(base, (t) => /web view listening on 127\.0\.0\.1 port (\d+)/.exec(t), 10000, "web view address"))[1]);
 const url = (p) => `http://127.0.0.1:${port}${p}`;
