@@ -1,10 +1,37 @@
 #include "basestation/base_config.hpp"
 
+#include <arpa/inet.h>
+
 #include "common/config.hpp"
 
 namespace cairn::base {
 
 namespace {
+
+bool is_ip_literal(const std::string& s) {
+  unsigned char buf[16];
+  return inet_pton(AF_INET, s.c_str(), buf) == 1 || inet_pton(AF_INET6, s.c_str(), buf) == 1;
+}
+
+void read_web(const ConfigSection& w, WebConfig* c) {
+  c->enabled = w.boolean_or("enabled", false);
+  c->listen = w.string_or("listen", c->listen);
+  if (!is_ip_literal(c->listen)) w.fail("listen", "expected an IPv4 or IPv6 address such as 127.0.0.1 (no host names)");
+  c->port = static_cast<std::uint16_t>(w.integer_or("port", c->port, {0, 65535}));
+  c->token = w.string_or("token", "");
+  c->state_period = seconds_to_nanos(w.number_or("state_period_s", 0.2, {0.02, 60.0}));
+  c->map_period = seconds_to_nanos(w.number_or("map_period_s", 2.0, {0.2, 600.0}));
+  if (c->enabled && c->token.size() < kMinWebTokenLength) {
+    w.fail("token", "the web view needs a token of at least " + std::to_string(kMinWebTokenLength) +
+                        " characters (e.g. `od -An -tx1 -N16 /dev/urandom | tr -d ' \\n'`)");
+  }
+  // It travels in a URL's query: only characters no browser escapes there.
+  for (const char ch : c->token) {
+    const bool ok = (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '-' ||
+                    ch == '_' || ch == '.' || ch == '~';
+    if (!ok) w.fail("token", "use only letters, digits and - _ . ~ (it travels in a URL)");
+  }
+}
 
 BaseConfig from_document(const ConfigDocument& doc) {
   const ConfigSection root = doc.root();
@@ -95,6 +122,7 @@ BaseConfig from_document(const ConfigDocument& doc) {
     }
     if (c.explore_enabled && !c.fusion_enabled) e->fail("enabled", "exploration needs [fusion] enabled = true");
   }
+  if (const auto w = root.optional_section("web")) read_web(*w, &c.web);
   if (const auto f = root.optional_section("fusion")) c.fusion.restart_sigma = read_sigma(*f, "restart_sigma", c.fusion.restart_sigma);
   if (const auto u = root.optional_section("unknown_robot")) {
     c.fusion.unknown.sigma = read_sigma(*u, "initial_sigma", c.fusion.unknown.sigma);

@@ -7,6 +7,7 @@
 #include "basestation/explore/allocator_config.hpp"
 #include "basestation/fusion.hpp"
 #include "basestation/mapper/mapper.hpp"
+#include "basestation/web/web_config.hpp"
 #include "common/clock.hpp"
 #include "common/dds/profile.hpp"
 
@@ -38,6 +39,9 @@ struct BaseConfig {
   // robots without bids keep their configured routes.
   bool explore_enabled = false;  // needs [fusion]: bids count only from localised robots
   explore::AllocatorConfig explore;
+
+  // [web]: the live web view (docs/web-view.md). Off by default.
+  WebConfig web;
 };
 
 BaseConfig load_base_config(const std::string& path);

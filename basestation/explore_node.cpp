@@ -21,32 +21,38 @@ ExploreNode::ExploreNode(const dds::Participant& pp, const explore::AllocatorCon
 }
 
 void ExploreNode::take_visits(Nanos now, const Fusion& fusion, const mapper::Mapper* map) {
-  msg::PoseCorrection c;
   visit_reader_.take([&](const cairn_VisitRequest& d, const dds_sample_info_t&) {
     msg::VisitRequest v;
     (void)dds::from_dds(d, &v);
-    std::optional<Cell> target;
-    if (map) {
-      target = visit_target_class(map->geometry(), v.x, v.y, allocator_.config().arrival_radius_m,
-                                  [map](int i, int j) { return map->classify(i, j); });
-    }
-    VisitVerdict verdict = check_visit(v, fusion.correction(v.robot_id, 0, &c), target);
-    if (verdict == VisitVerdict::kAccepted && !allocator_.request_visit(v.robot_id, Vec2(v.x, v.y), now)) {
-      verdict = VisitVerdict::kRobotLost;
-    }
-    if (verdict == VisitVerdict::kAccepted) {
-      ++counters_.visits_taken;
-      CAIRN_LOG_INFO("explore", "visit: robot {} to ({:.2f}, {:.2f}), asked by {}", v.robot_id, v.x, v.y,
-                     v.issued_by.data());
-      return;
-    }
-    // Logged when the count reaches a power of two: a flood cannot flood the log.
-    const std::uint64_t n = ++counters_.visits_refused;
-    if ((n & (n - 1)) == 0) {
-      CAIRN_LOG_WARN("explore", "visit request for robot {} refused: {} ({} refused so far)", v.robot_id,
-                     visit_verdict_text(verdict), n);
-    }
+    (void)request_visit(v, now, fusion, map);
   });
+}
+
+VisitVerdict ExploreNode::request_visit(const msg::VisitRequest& v, Nanos now, const Fusion& fusion,
+                                        const mapper::Mapper* map) {
+  msg::PoseCorrection c;
+  std::optional<Cell> target;
+  if (map) {
+    target = visit_target_class(map->geometry(), v.x, v.y, allocator_.config().arrival_radius_m,
+                                [map](int i, int j) { return map->classify(i, j); });
+  }
+  VisitVerdict verdict = check_visit(v, fusion.correction(v.robot_id, 0, &c), target);
+  if (verdict == VisitVerdict::kAccepted && !allocator_.request_visit(v.robot_id, Vec2(v.x, v.y), now)) {
+    verdict = VisitVerdict::kRobotLost;
+  }
+  if (verdict == VisitVerdict::kAccepted) {
+    ++counters_.visits_taken;
+    CAIRN_LOG_INFO("explore", "visit: robot {} to ({:.2f}, {:.2f}), asked by {}", v.robot_id, v.x, v.y,
+                   v.issued_by.data());
+    return verdict;
+  }
+  // Logged when the count reaches a power of two: a flood cannot flood the log.
+  const std::uint64_t n = ++counters_.visits_refused;
+  if ((n & (n - 1)) == 0) {
+    CAIRN_LOG_WARN("explore", "visit request for robot {} refused: {} ({} refused so far)", v.robot_id,
+                   visit_verdict_text(verdict), n);
+  }
+  return verdict;
 }
 
 bool ExploreNode::poll(Nanos now, const Fusion& fusion, const Fleet& fleet, const mapper::Mapper* map) {

@@ -42,6 +42,10 @@ class ExploreNode {
   /// current task: the allocator takes the task back at once (logged); anything else,
   /// unknown values included, is ignored.
   void on_nav(std::uint16_t robot, std::uint8_t nav_state, std::uint32_t task_id, Nanos now);
+  /// An operator's visit request, checked (visit_check.hpp) and given to the allocator:
+  /// what a VisitRequest from DDS reaches, and what the web view calls in process.
+  /// Counted and logged either way; returns the verdict.
+  VisitVerdict request_visit(const msg::VisitRequest& v, Nanos now, const Fusion& fusion, const mapper::Mapper* map);
   /// One line for the console.
   std::string summary() const;
   const explore::TaskAllocator& allocator() const { return allocator_; }

@@ -16,6 +16,9 @@
 #include "basestation/fusion_node.hpp"
 #include "basestation/grid_map_node.hpp"
 #include "basestation/visit_request.hpp"
+#include "basestation/web/web_page.hpp"
+#include "basestation/web/web_server.hpp"
+#include "basestation/web/web_state.hpp"
 #include "cairn.h"
 #include "common/dds/topics.hpp"
 #include "common/log.hpp"
@@ -70,6 +73,41 @@ void export_map(base::GridMapNode& map, const base::FusionNode& fusion, const ba
   } else {
     CAIRN_LOG_ERROR("base", "map export to {} failed ({}): {}", dir.c_str(), why, error.c_str());
   }
+}
+
+// A bounded IDL string, which a hostile robot may leave unterminated.
+template <std::size_t N>
+std::string idl_text(const char (&a)[N]) {
+  return std::string(a, strnlen(a, N));
+}
+
+// The web view's device rows, from the robot's status (bounded by the IDL's MAX_DEVICES).
+base::WebRobotStatus web_status(const cairn_RobotStatus& s) {
+  base::WebRobotStatus w;
+  w.battery_voltage = s.battery_voltage;
+  w.battery_soc = s.battery_soc;
+  w.stop_reason = s.stop_reason;
+  w.stop_text = idl_text(s.stop_text);
+  w.nav_state = s.nav_state;
+  for (std::size_t i = 0; i < std::min<std::size_t>(s.n_devices, cairn_MAX_DEVICES); ++i)
+    w.devices.push_back({idl_text(s.devices[i].name), idl_text(s.devices[i].reason), s.devices[i].state});
+  return w;
+}
+
+// A browser's visit request goes where a VisitRequest from DDS goes: the executive's checks
+// and allocator (ExploreNode::request_visit), in this thread.
+std::string web_visit(const base::WebVisit& v, base::ExploreNode* explore, const base::FusionNode* fusion,
+                      const base::GridMapNode* map, Nanos now) {
+  if (!explore) return "refused: exploration is off ([explore] enabled = false): no executive to send robots";
+  msg::VisitRequest r;
+  r.robot_id = v.robot;
+  r.issued = now;
+  r.x = v.x;
+  r.y = v.y;
+  constexpr std::string_view kIssuer = "web view";
+  std::copy(kIssuer.begin(), kIssuer.end(), r.issued_by.begin());  // the rest stays zero: terminated
+  const base::VisitVerdict verdict = explore->request_visit(r, now, fusion->fusion(), map ? &map->mapper() : nullptr);
+  return verdict == base::VisitVerdict::kAccepted ? "accepted" : std::string("refused: ") + base::visit_verdict_text(verdict);
 }
 
 int run(const std::string& config_path, double duration_s) {
@@ -128,6 +166,23 @@ int run(const std::string& config_path, double duration_s) {
                    cfg.explore.coordinated ? "coordinated" : "uncoordinated");
   }
 
+  std::unique_ptr<base::WebServer> web;
+  base::WebState web_state;
+  if (cfg.web.enabled) {
+    base::WebServerOptions o;
+    o.listen = cfg.web.listen;
+    o.port = cfg.web.port;
+    o.token = cfg.web.token;
+    o.index_html = base::web_page::kIndexHtml;
+    o.app_js = base::web_page::kAppJs;
+    web = std::make_unique<base::WebServer>(o);
+    CAIRN_LOG_INFO("base", "web view: http://{}:{}/?token=... (the token is [web] token)", cfg.web.listen.c_str(), web->port());
+    std::printf("web view listening on %s port %u\n", cfg.web.listen.c_str(), static_cast<unsigned>(web->port()));
+    std::fflush(stdout);
+  }
+  Nanos next_web_state = start, next_web_map = start;
+  std::uint64_t web_map_version = 0;
+
   const Nanos end = duration_s > 0 ? start + seconds_to_nanos(duration_s) : 0;
   Nanos next_table = start + cfg.table_period;
   while (!shutdown_requested() && (end == 0 || clock.now() < end)) {
@@ -142,6 +197,7 @@ int run(const std::string& config_path, double duration_s) {
     status_reader.take(
         [&](const cairn_RobotStatus& s, const dds_sample_info_t&) {
           fleet.on_status(s.robot_id, s.name, mode_name(s.mode), s.seq, now);
+          if (web && fleet.robots().contains(s.robot_id)) web_state.on_status(s.robot_id, web_status(s));
           if (explore) explore->on_nav(s.robot_id, s.nav_state, s.nav_task_id, now);  // a stuck robot: its task back at once
         },
         [&](const cairn_RobotStatus& key, dds::InstanceEvent ev) {
@@ -159,6 +215,19 @@ int run(const std::string& config_path, double duration_s) {
       const base::GridMapNode::Area a = map->area();
       CAIRN_LOG_INFO("explore", "explored: {:.1f} m2 mapped ({:.1f} m2 clear, {:.1f} m2 obstacle)", a.clear_m2 + a.obstacle_m2,
                      a.clear_m2, a.obstacle_m2);
+    }
+    if (web) {
+      for (const base::QueuedWebCommand& c : web->take_commands())
+        web_state.on_command_result(c.id, c.visit, web_visit(c.visit, explore.get(), fusion.get(), map.get(), now));
+      if (now >= next_web_state) {
+        next_web_state = now + cfg.web.state_period;
+        web->publish_state(std::make_shared<const std::string>(
+            web_state.state_json(now, fleet, fusion ? &fusion->fusion() : nullptr, explore.get())));
+      }
+      if (map && now >= next_web_map) {
+        next_web_map = now + cfg.web.map_period;
+        web->publish_map(std::make_shared<const std::string>(base::WebState::map_json(map->mapper().classified(), ++web_map_version)));
+      }
     }
     if (now >= next_table) {
       next_table += cfg.table_period;

@@ -57,10 +57,20 @@ if ((record)); then
   echo "demo: recording every topic to $run/cairn.mcap"
 fi
 
-$B/basestation/cairn-base --config config/base-hil.toml --duration "$duration" 2>"$run/base.err" > >(tee "$run/base.out") &
+# The live web view (docs/web-view.md): loopback, any free port, a token made for this run.
+token=$(od -An -tx1 -N16 /dev/urandom | tr -d ' \n')
+{ cat config/base-hil.toml; printf '\n[web]\nenabled = true\nport = 0\ntoken = "%s"\n' "$token"; } > "$run/base.toml"
+$B/basestation/cairn-base --config "$run/base.toml" --duration "$duration" 2>"$run/base.err" > >(tee "$run/base.out") &
 base=$!
 pids+=("$base")
 sleep 0.5
+for _ in $(seq 50); do grep -q "^web view listening" "$run/base.out" 2>/dev/null && break; sleep 0.1; done
+web_port=$(sed -n 's/^web view listening on 127\.0\.0\.1 port \([0-9]*\)$/\1/p' "$run/base.out" | head -1)
+if [ -n "$web_port" ]; then
+  echo "demo: live view (open it in a browser): http://127.0.0.1:$web_port/?token=$token"
+else
+  echo "demo: the web view did not start (see $run/base.err); the demo goes on without it" >&2
+fi
 for id in $(seq "$robots"); do
   $B/firmware/cairn-robot --config "$run/robot-$id.toml" --duration "$duration" 2>"$run/robot-$id.log" &
   pids+=($!)

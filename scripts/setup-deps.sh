@@ -17,7 +17,11 @@ core=(
   googletest libgtest-dev libgmock-dev libbenchmark-dev
   libsystemd-dev dpkg-dev openssh-client openssh-server
   mount fdisk e2fsprogs xz-utils openssl
+  chromium nodejs   # the web view's browser tests (tests/web: puppeteer-core drives chromium)
 )
+# npm for puppeteer-core: Debian's package, unless a nodejs that bundles npm is installed
+# (Debian's npm would conflict with it).
+command -v npm >/dev/null || core+=(npm)
 extra=()
 vm_kernel=0
 for arg in "$@"; do

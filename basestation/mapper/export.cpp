@@ -5,6 +5,8 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
+#include <cerrno>
+#include <cstring>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -310,12 +312,26 @@ ClassGrid read_map_server(const std::string& yaml_path) {
 
 void write_png(const ClassGrid& map, const std::vector<Trajectory>& trajectories, const std::vector<msg::Landmark>& landmarks,
                const std::string& path, const PngOptions& options) {
+  std::vector<std::uint8_t> bytes;
+  try {
+    bytes = render_png(map, trajectories, landmarks, options);
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(path + ": " + e.what());
+  }
+  std::ofstream f(path, std::ios::binary | std::ios::trunc);
+  f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  f.close();
+  if (!f) throw std::runtime_error(path + ": PNG write failed: " + std::strerror(errno));
+}
+
+std::vector<std::uint8_t> render_png(const ClassGrid& map, const std::vector<Trajectory>& trajectories,
+                                     const std::vector<msg::Landmark>& landmarks, const PngOptions& options) {
   const GridGeometry& g = map.geometry;
   const int s = std::max(1, options.pixels_per_cell);
   Canvas cv;
   cv.w = g.width * s;
   cv.h = g.height * s;
-  if (cv.w <= 0 || cv.h <= 0) throw std::runtime_error(path + ": empty map");
+  if (cv.w <= 0 || cv.h <= 0) throw std::runtime_error("empty map");
   cv.rgb.assign(static_cast<std::size_t>(cv.w) * static_cast<std::size_t>(cv.h) * 3, 0);
   for (int j = 0; j < g.height; ++j) {
     for (int i = 0; i < g.width; ++i) {
@@ -373,11 +389,21 @@ void write_png(const ClassGrid& map, const std::vector<Trajectory>& trajectories
   image.width = static_cast<png_uint_32>(cv.w);
   image.height = static_cast<png_uint_32>(cv.h);
   image.format = PNG_FORMAT_RGB;
-  if (!png_image_write_to_file(&image, path.c_str(), 0, cv.rgb.data(), cv.w * 3, nullptr)) {
+  // First the size, then the bytes (libpng's two-call protocol for memory output).
+  png_alloc_size_t size = 0;
+  if (!png_image_write_to_memory(&image, nullptr, &size, 0, cv.rgb.data(), cv.w * 3, nullptr)) {
     const std::string msg = image.message;
     png_image_free(&image);
-    throw std::runtime_error(path + ": PNG write failed: " + msg);
+    throw std::runtime_error("PNG encoding failed: " + msg);
   }
+  std::vector<std::uint8_t> out(size);
+  if (!png_image_write_to_memory(&image, out.data(), &size, 0, cv.rgb.data(), cv.w * 3, nullptr)) {
+    const std::string msg = image.message;
+    png_image_free(&image);
+    throw std::runtime_error("PNG encoding failed: " + msg);
+  }
+  out.resize(size);
+  return out;
 }
 
 void write_landmarks_json(const std::vector<msg::Landmark>& landmarks, const std::string& path) {

@@ -53,6 +53,10 @@ struct PngOptions {
 /// options.boxes outlined.
 void write_png(const ClassGrid& map, const std::vector<Trajectory>& trajectories, const std::vector<msg::Landmark>& landmarks,
                const std::string& path, const PngOptions& options = {});
+/// The same image as PNG bytes in memory (the web view sends the bare map this way);
+/// throws std::runtime_error for an empty map or an encoder failure.
+std::vector<std::uint8_t> render_png(const ClassGrid& map, const std::vector<Trajectory>& trajectories,
+                                     const std::vector<msg::Landmark>& landmarks, const PngOptions& options = {});
 
 /// {"frame": "global", "count": N, "landmarks": [{"id", "x", "y", "cov": [xx, xy, yx, yy],
 ///  "ellipse_3sigma": {"major_m", "minor_m", "angle_rad"}}]}.

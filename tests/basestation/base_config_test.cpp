@@ -106,3 +106,41 @@ TEST(BaseConfig, TheMapFrameMustComeFromTheConfiguration) {
 
 }  // namespace
 }  // namespace cairn::base
+
+namespace cairn::base {
+namespace {
+
+TEST(BaseConfig, TheWebViewIsOffByDefaultOnLoopbackAndNeedsAToken) {
+  const BaseConfig off = parse_base_config(kFleet, "base.toml");
+  EXPECT_FALSE(off.web.enabled);
+  EXPECT_EQ(off.web.listen, "127.0.0.1");
+  const BaseConfig on = parse_base_config(std::string("[web]\nenabled = true\nport = 8123\ntoken = \"abcdefghijklmnop\"\n"
+                                                      "map_period_s = 1.5\n") + kFleet, "web.toml");
+  EXPECT_TRUE(on.web.enabled);
+  EXPECT_EQ(on.web.listen, "127.0.0.1");
+  EXPECT_EQ(on.web.port, 8123);
+  EXPECT_EQ(on.web.token, "abcdefghijklmnop");
+  EXPECT_EQ(on.web.map_period, 1500 * kNanosPerMilli);
+  EXPECT_EQ(parse_base_config(std::string("[web]\nlisten = \"::1\"\n") + kFleet, "v6.toml").web.listen, "::1");
+}
+
+TEST(BaseConfig, BadWebViewKeysAreClearErrors) {
+  const auto error = [](const std::string& web) {
+    try {
+      (void)parse_base_config("[web]\n" + web + kFleet, "web.toml");
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(error("enabled = true\n").find("token of at least 16"), std::string::npos) << error("enabled = true\n");
+  EXPECT_NE(error("enabled = true\ntoken = \"short\"\n").find("token"), std::string::npos);
+  EXPECT_NE(error("token = \"has spaces in it ok?\"\n").find("letters, digits"), std::string::npos);
+  EXPECT_NE(error("listen = \"localhost\"\n").find("IPv4 or IPv6"), std::string::npos);
+  EXPECT_NE(error("port = 70000\n").find("port"), std::string::npos);
+  EXPECT_NE(error("prot = 80\n").find("prot"), std::string::npos);
+  EXPECT_NE(error("map_period_s = 0\n").find("map_period_s"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace cairn::base

@@ -1,0 +1,158 @@
+// Cairn's live view: draws what cairn-base pushes over its WebSocket (docs/web-view.md)
+// and sends a visit request for the chosen robot where the map is clicked.
+"use strict";
+
+const token = new URLSearchParams(location.search).get("token") || "";
+const canvas = document.getElementById("map");
+const ctx = canvas.getContext("2d");
+// Robot 1 red, 2 blue, 3 green...: the colours of the exported map.png.
+const colours = ["#dc1e1e", "#1e5adc", "#14a028", "#c87800", "#9628b4", "#00a0aa"];
+const colour = (id) => colours[(Math.max(id, 1) - 1) % colours.length];
+
+// What the tests read: the latest messages, counts, and the view's transform.
+const view = { state: null, map: null, image: null, counts: { state: 0, map: 0, reply: 0 }, lastReply: null };
+window.cairnView = view;
+
+// The map fills the canvas, keeping its aspect; world y grows up, canvas y down.
+function fit() {
+  const m = view.map;
+  if (!m) return null;
+  const scale = Math.min(canvas.width / m.width, canvas.height / m.height);  // px per cell
+  return { scale, ox: (canvas.width - m.width * scale) / 2, oy: (canvas.height - m.height * scale) / 2 };
+}
+view.worldToCanvas = (x, y) => {
+  const m = view.map, f = fit();
+  if (!f) return null;
+  return [f.ox + ((x - m.origin_x) / m.resolution) * f.scale, f.oy + (m.height - (y - m.origin_y) / m.resolution) * f.scale];
+};
+view.canvasToWorld = (px, py) => {
+  const m = view.map, f = fit();
+  if (!f) return null;
+  return [m.origin_x + ((px - f.ox) / f.scale) * m.resolution, m.origin_y + (m.height - (py - f.oy) / f.scale) * m.resolution];
+};
+const metres = (d) => (d / view.map.resolution) * fit().scale;
+
+function ellipse(x, y, e, style) {
+  const c = view.worldToCanvas(x, y);
+  if (!e || e.major <= 0) return;
+  ctx.beginPath();
+  ctx.strokeStyle = style;
+  ctx.ellipse(c[0], c[1], Math.max(metres(e.major), 1), Math.max(metres(e.minor), 1), -e.angle, 0, 2 * Math.PI);
+  ctx.stroke();
+}
+
+function draw() {
+  ctx.fillStyle = "#bebebe";
+  ctx.fillRect(0, 0, canvas.width, canvas.height);
+  if (!view.map || !view.image) return;
+  const f = fit();
+  ctx.imageSmoothingEnabled = false;
+  ctx.drawImage(view.image, f.ox, f.oy, view.map.width * f.scale, view.map.height * f.scale);
+  const s = view.state;
+  if (!s) return;
+  ctx.lineWidth = 1;
+  for (const l of s.landmarks) {
+    const c = view.worldToCanvas(l.x, l.y);
+    ctx.strokeStyle = "#e600c8";
+    ctx.beginPath();
+    ctx.moveTo(c[0] - 4, c[1]); ctx.lineTo(c[0] + 4, c[1]);
+    ctx.moveTo(c[0], c[1] - 4); ctx.lineTo(c[0], c[1] + 4);
+    ctx.stroke();
+    ellipse(l.x, l.y, l.ellipse, "#e600c8");
+  }
+  for (const r of s.robots) {
+    const col = colour(r.id);
+    if (r.trail && r.trail.length > 1) {
+      ctx.strokeStyle = col;
+      ctx.beginPath();
+      r.trail.forEach((p, i) => { const c = view.worldToCanvas(p[0], p[1]); i ? ctx.lineTo(c[0], c[1]) : ctx.moveTo(c[0], c[1]); });
+      ctx.stroke();
+    }
+    if (!r.pose) continue;
+    const c = view.worldToCanvas(r.pose.x, r.pose.y);
+    if (r.task && r.task.active) {
+      const t = view.worldToCanvas(r.task.x, r.task.y);
+      ctx.setLineDash([4, 4]);
+      ctx.strokeStyle = col;
+      ctx.beginPath(); ctx.moveTo(c[0], c[1]); ctx.lineTo(t[0], t[1]); ctx.stroke();
+      ctx.setLineDash([]);
+    }
+    ellipse(r.pose.x, r.pose.y, r.ellipse, col);
+    ctx.fillStyle = col;
+    ctx.beginPath(); ctx.arc(c[0], c[1], 6, 0, 2 * Math.PI); ctx.fill();
+    ctx.strokeStyle = "#000";
+    ctx.beginPath(); ctx.moveTo(c[0], c[1]);
+    ctx.lineTo(c[0] + 12 * Math.cos(r.pose.theta), c[1] - 12 * Math.sin(r.pose.theta)); ctx.stroke();
+  }
+}
+
+function text(v) { return v === undefined || v === null ? "" : String(v); }
+function row(cells) {
+  const tr = document.createElement("tr");
+  for (const c of cells) { const td = document.createElement("td"); td.append(c); tr.append(td); }
+  return tr;
+}
+
+function panel() {
+  const s = view.state;
+  const body = document.querySelector("#robots tbody");
+  body.replaceChildren();
+  const select = document.getElementById("robot");
+  for (const r of s.robots) {
+    const name = document.createElement("span");
+    const sw = document.createElement("span");
+    sw.className = "swatch"; sw.style.background = colour(r.id);
+    name.append(sw, `${r.id} ${text(r.name)}`);
+    const stop = document.createElement("span");
+    stop.textContent = text(r.stop);
+    if (r.estop) stop.className = "estop";
+    const battery = r.battery_v ? `${r.battery_v.toFixed(1)} V ${Math.round(r.battery_soc * 100)}%` : "";
+    const task = r.task ? `${r.task.kind} #${r.task.id}` : "";
+    body.append(row([name, text(r.mode), `${r.presence} ${r.link_age_s.toFixed(1)} s`, battery, stop, task]));
+    if (!select.querySelector(`option[value="${r.id}"]`)) {
+      const o = document.createElement("option");
+      o.value = String(r.id); o.textContent = `robot ${r.id} ${text(r.name)}`;
+      select.append(o);
+    }
+  }
+  const cmds = document.querySelector("#commands tbody");
+  cmds.replaceChildren();
+  for (const c of s.commands) cmds.append(row([String(c.id), String(c.robot), `(${c.x.toFixed(2)}, ${c.y.toFixed(2)})`, c.result]));
+  document.getElementById("landmarks").textContent =
+    `${s.landmarks_total} landmark(s)` + (s.landmarks_total > s.landmarks.length ? `, ${s.landmarks.length} shown` : "");
+}
+
+function connect() {
+  const scheme = location.protocol === "https:" ? "wss" : "ws";
+  const ws = new WebSocket(`${scheme}://${location.host}/ws?token=${encodeURIComponent(token)}`);
+  const link = document.getElementById("link");
+  ws.onopen = () => { link.textContent = "live"; link.className = "up"; };
+  ws.onclose = () => { link.textContent = "disconnected: retrying"; link.className = "down"; setTimeout(connect, 1000); };
+  ws.onmessage = (ev) => {
+    const msg = JSON.parse(ev.data);
+    if (msg.type === "map") {
+      const img = new Image();
+      img.onload = () => { view.map = msg; view.image = img; view.counts.map++; draw(); };
+      img.src = "data:image/png;base64," + msg.png;
+    } else if (msg.type === "state") {
+      view.state = msg; view.counts.state++;
+      panel(); draw();
+    } else if (msg.type === "reply") {
+      view.lastReply = msg; view.counts.reply++;
+      document.getElementById("reply").textContent = msg.ok ? `request #${msg.id} queued` : `refused: ${msg.error}`;
+    }
+  };
+  view.socket = ws;
+}
+
+canvas.addEventListener("click", (ev) => {
+  const robot = Number(document.getElementById("robot").value);
+  const reply = document.getElementById("reply");
+  if (!robot) { reply.textContent = "choose a robot first"; return; }
+  const rect = canvas.getBoundingClientRect();
+  const w = view.canvasToWorld((ev.clientX - rect.left) * (canvas.width / rect.width), (ev.clientY - rect.top) * (canvas.height / rect.height));
+  if (!w || !view.socket || view.socket.readyState !== WebSocket.OPEN) { reply.textContent = "no map or no link yet"; return; }
+  view.socket.send(JSON.stringify({ cmd: "visit", robot, x: w[0], y: w[1] }));
+});
+
+connect();

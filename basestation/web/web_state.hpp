@@ -1,0 +1,66 @@
+// What the web view shows, as JSON text built on the base's main loop from its own state
+// (fleet, fusion, explore, map): the live state (robots with pose, 3σ ellipse, bounded
+// trail, panel fields and task; landmarks with ellipses; recent command results) and the
+// map (the classified grid as a PNG from mapper::render_png, base64, with its geometry).
+// The text is handed to WebServer as an immutable snapshot.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "basestation/fleet.hpp"
+#include "basestation/fusion.hpp"
+#include "basestation/mapper/grid.hpp"
+#include "basestation/web/web_command.hpp"
+#include "common/clock.hpp"
+
+namespace cairn::base {
+
+class ExploreNode;
+
+/// The RobotStatus fields the panel shows beyond the fleet table (from the robot's latest status).
+struct WebRobotStatus {
+  float battery_voltage = 0, battery_soc = 0;
+  std::uint8_t stop_reason = 0;
+  std::string stop_text;
+  std::uint8_t nav_state = 0;
+  struct Device {
+    std::string name, reason;
+    std::uint8_t state = 0;
+  };
+  std::vector<Device> devices;
+};
+
+inline constexpr std::size_t kWebTrailPoints = 400;      // per robot: older points are dropped
+inline constexpr double kWebTrailStepM = 0.05;           // a point when the robot moved this far
+inline constexpr std::size_t kWebMaxLandmarks = 1000;    // beyond: counted, not sent
+inline constexpr std::size_t kWebCommandHistory = 10;    // results kept for the page
+
+class WebState {
+ public:
+  void on_status(std::uint16_t robot, WebRobotStatus status);
+  /// The main loop's verdict on a queued command ("accepted" or why not).
+  void on_command_result(std::uint64_t id, const WebVisit& visit, std::string result);
+  /// Samples the trails and returns the state JSON. `explore` may be null.
+  std::string state_json(Nanos now, const Fleet& fleet, const Fusion* fusion, const ExploreNode* explore);
+  /// The map message: {"type": "map", "version", "origin_x", "origin_y", "resolution",
+  /// "width", "height", "png": base64}; obstacle black, clear white, unknown grey.
+  static std::string map_json(const ClassGrid& grid, std::uint64_t version);
+
+ private:
+  struct Result {
+    std::uint64_t id;
+    WebVisit visit;
+    std::string result;
+  };
+  std::map<std::uint16_t, WebRobotStatus> status_;
+  std::map<std::uint16_t, std::deque<Vec2>> trails_;
+  std::deque<Result> results_;
+};
+
+std::string base64(const std::vector<std::uint8_t>& bytes);
+
+}  // namespace cairn::base

@@ -1,0 +1,44 @@
+// The web view's command parser: a visit is read exactly; anything else is a clear error.
+#include "basestation/web/web_command.hpp"
+
+#include <gtest/gtest.h>
+
+namespace cairn::base {
+namespace {
+
+TEST(WebCommand, AVisitIsReadExactly) {
+  const WebCommandParse p = parse_web_command(R"({"cmd": "visit", "robot": 2, "x": -1.25, "y": 3.5})");
+  ASSERT_TRUE(p.visit) << p.error;
+  EXPECT_EQ(p.visit->robot, 2);
+  EXPECT_EQ(p.visit->x, -1.25);
+  EXPECT_EQ(p.visit->y, 3.5);
+  EXPECT_EQ(p.error, "");
+  EXPECT_TRUE(parse_web_command(R"({"cmd":"visit","robot":65535,"x":0,"y":0})").visit);
+}
+
+TEST(WebCommand, EverythingElseIsAClearError) {
+  const auto error = [](std::string_view text) {
+    const WebCommandParse p = parse_web_command(text);
+    EXPECT_FALSE(p.visit) << text;
+    return p.error;
+  };
+  EXPECT_EQ(error("visit 1 2 3"), "not JSON");
+  EXPECT_EQ(error(""), "not JSON");
+  EXPECT_EQ(error("[1, 2]"), "expected a JSON object");
+  EXPECT_EQ(error(R"({"robot": 1})"), "missing \"cmd\" (a string)");
+  EXPECT_EQ(error(R"({"cmd": "estop_all"})"), "unknown command (known: visit)");
+  EXPECT_EQ(error(R"({"cmd": "visit", "robot": 0, "x": 0, "y": 0})"), "visit: \"robot\" must be an integer 1..65535");
+  EXPECT_EQ(error(R"({"cmd": "visit", "robot": 65536, "x": 0, "y": 0})"), "visit: \"robot\" must be an integer 1..65535");
+  EXPECT_EQ(error(R"({"cmd": "visit", "robot": -1, "x": 0, "y": 0})"), "visit: \"robot\" must be an integer 1..65535");
+  EXPECT_EQ(error(R"({"cmd": "visit", "robot": 1.5, "x": 0, "y": 0})"), "visit: \"robot\" must be an integer 1..65535");
+  EXPECT_EQ(error(R"({"cmd": "visit", "robot": 18446744073709551615, "x": 0, "y": 0})"),
+            "visit: \"robot\" must be an integer 1..65535");
+  EXPECT_EQ(error(R"({"cmd": "visit", "robot": 1, "x": "3", "y": 0})"), "visit: \"x\" and \"y\" must be finite numbers (m)");
+  EXPECT_EQ(error(R"({"cmd": "visit", "robot": 1, "x": 1e400, "y": 0})"), "not JSON");  // out of double's range
+  EXPECT_EQ(error(R"({"cmd": "visit", "robot": 1, "x": 0})"), "visit: \"x\" and \"y\" must be finite numbers (m)");
+  EXPECT_EQ(error(std::string(kMaxWebCommandBytes + 1, ' ')), "command longer than 1024 bytes");
+  EXPECT_EQ(error(std::string(kMaxWebCommandBytes / 2, '[')), "not JSON");  // deep nesting within the cap
+}
+
+}  // namespace
+}  // namespace cairn::base
