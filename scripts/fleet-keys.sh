@@ -2,12 +2,16 @@
 # The fleet's DDS Security keys (issue 20; docs/security.md): one CA, a certificate and key
 # per member, the signed governance and each member's signed permissions, in one directory.
 #
-#   scripts/fleet-keys.sh init DIR [--domain N] [--days N]   a new fleet: the CA and the governance
+#   scripts/fleet-keys.sh init DIR [--domain N] [--days N] [--ca-days N]
+#                                                            a new fleet: the CA (valid --ca-days, 3650) and
+#                                                            the governance; members and the revocation list
+#                                                            are valid --days (365)
 #   scripts/fleet-keys.sh add DIR robot ID                   a robot (ID 1..250): robot-ID
 #   scripts/fleet-keys.sh add DIR base [NAME]                the base station (default name: base)
 #   scripts/fleet-keys.sh add DIR viewer [NAME]              a read-only member (default: viewer)
 #   scripts/fleet-keys.sh add DIR bench NAME                 cairn-bench-dds's topics only (the cost of security)
 #   scripts/fleet-keys.sh revoke DIR NAME                    NAME leaves the fleet: its certificate is revoked
+#   scripts/fleet-keys.sh crl DIR                            sign the revocation list again (before it expires)
 #   scripts/fleet-keys.sh list DIR                           the members and their roles
 #
 # Layout of DIR (the CA's key never leaves it: copy a member's directory, not DIR):
@@ -20,11 +24,12 @@
 #   members/NAME/ca.pem governance.p7s crl.pem  copies: a member's directory is all its host needs
 #   revoked/NAME                  a revoked member's old directory, kept for the record
 # After a revoke, every member's crl.pem is replaced here; copy the members' directories
-# to their hosts again: a member refuses a peer whose certificate its crl.pem lists.
+# to their hosts again: a member refuses a peer whose certificate its crl.pem lists. The
+# list itself expires after --days: sign it again before (crl) and copy it out likewise.
 set -euo pipefail
 
 die() { echo "fleet-keys: $*" >&2; exit 2; }
-usage() { sed -n '2,22p' "$0"; }
+usage() { sed -n '2,/^set -euo/p' "$0" | sed '$d'; }
 command -v openssl >/dev/null || die "openssl is needed (apt-get install openssl)"
 
 # The topics by role (common/dds/topics.hpp is the list's source; a test checks they agree).
@@ -151,23 +156,23 @@ shift 2
 
 case $cmd in
   init)
-    domain=0 days=365
+    domain=0 days=365 ca_days=3650
     while (($#)); do
       case $1 in
         --domain) domain=${2:?--domain N}; shift 2 ;;
         --days) days=${2:?--days N}; shift 2 ;;
+        --ca-days) ca_days=${2:?--ca-days N}; shift 2 ;;
         *) die "init: unknown option '$1'" ;;
       esac
     done
     [[ $domain =~ ^[0-9]+$ ]] && ((domain <= 230)) || die "init: --domain must be 0..230, not '$domain'"
     [[ $days =~ ^[1-9][0-9]*$ ]] || die "init: --days must be a positive integer, not '$days'"
+    [[ $ca_days =~ ^[1-9][0-9]*$ ]] && ((ca_days >= days)) || die "init: --ca-days must be an integer >= --days ($days), not '$ca_days'"
     [[ ! -e $dir/ca/ca.key ]] || die "init: $dir already holds a fleet CA (a new fleet needs a new directory)"
     mkdir -p "$dir/ca/issued" "$dir/members"
     dir=$(cd "$dir" && pwd)
-    umask 077
-    openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -days "$days" \
-      -subj "$(subject "fleet CA")" -keyout "$dir/ca/ca.key" -out "$dir/ca/ca.pem" 2>/dev/null || die "init: creating the CA failed"
-    umask 022
+    (umask 077; openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -days "$ca_days" \
+      -subj "$(subject "fleet CA")" -keyout "$dir/ca/ca.key" -out "$dir/ca/ca.pem" 2>/dev/null) || die "init: creating the CA failed"
     chmod 644 "$dir/ca/ca.pem"
     echo "$domain" > "$dir/domain"
     echo "$days" > "$dir/days"
@@ -198,7 +203,7 @@ EOF
     gencrl "$dir"
     governance_xml "$domain" > "$dir/governance.xml"
     sign "$dir" "$dir/governance.xml" "$dir/governance.p7s"
-    echo "fleet-keys: a new fleet in $dir (domain $domain, certificates valid $days days); add its members with: $0 add $dir robot ID | base | viewer"
+    echo "fleet-keys: a new fleet in $dir (domain $domain, CA valid $ca_days days, members and revocation list $days days); add its members with: $0 add $dir robot ID | base | viewer"
     ;;
   add)
     [[ -f $dir/ca/ca.key ]] || die "add: $dir holds no fleet (run: $0 init $dir)"
@@ -218,10 +223,8 @@ EOF
     [[ ! -e $m ]] || die "add: $name is already a member (revoke it first to re-issue)"
     domain=$(cat "$dir/domain") days=$(cat "$dir/days")
     mkdir -p "$m"
-    umask 077
-    openssl req -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -subj "$(subject "$name")" \
-      -keyout "$m/key.pem" -out "$m/req.pem" 2>/dev/null || die "add: creating $name's key failed"
-    umask 022
+    (umask 077; openssl req -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -subj "$(subject "$name")" \
+      -keyout "$m/key.pem" -out "$m/req.pem" 2>/dev/null) || die "add: creating $name's key failed"
     openssl ca -batch -notext -config "$dir/ca/openssl.cnf" -in "$m/req.pem" -out "$m/cert.pem" 2>/dev/null ||
       die "add: signing $name's certificate failed"
     rm -f "$m/req.pem"
@@ -234,14 +237,21 @@ EOF
     ;;
   revoke)
     name=${1:-}
-    [[ -n $name && -d $dir/members/$name ]] || die "revoke: no member '$name' in $dir"
+    [[ $name =~ ^[A-Za-z0-9._-]+$ && $name != . && $name != .. && -d $dir/members/$name ]] ||
+      die "revoke: no member '$name' in $dir"
     openssl ca -batch -config "$dir/ca/openssl.cnf" -revoke "$dir/members/$name/cert.pem" 2>/dev/null ||
       die "revoke: revoking $name's certificate failed"
     mkdir -p "$dir/revoked"
     rm -rf "$dir/revoked/$name"
     mv "$dir/members/$name" "$dir/revoked/$name"
+    rm -f "$dir/revoked/$name/key.pem"  # the identity is dead: its key is of no use to anyone
     gencrl "$dir"
     echo "fleet-keys: $name revoked (its files: $dir/revoked/$name); copy the members' crl.pem to their hosts"
+    ;;
+  crl)
+    [[ -f $dir/ca/ca.key ]] || die "crl: $dir holds no fleet"
+    gencrl "$dir"
+    echo "fleet-keys: $dir/crl.pem signed again ($(openssl crl -in "$dir/crl.pem" -noout -nextupdate)); copy the members' crl.pem to their hosts"
     ;;
   list)
     [[ -d $dir/members ]] || die "list: $dir holds no fleet"

@@ -71,6 +71,11 @@ std::string xml_escaped(const std::string& s) {
 
 std::string security_xml(const std::string& member_dir) {
   if (member_dir.empty()) throw std::invalid_argument("DDS security: no keys directory given");
+  // Cyclone expands ${VAR} in its configuration's values: a '$' would change the path.
+  for (char c : member_dir)
+    if (c == '$' || static_cast<unsigned char>(c) < 0x20)
+      throw std::invalid_argument("DDS security: the keys directory's path may not hold '$' or control characters: " +
+                                  member_dir);
   const std::string dir = member_dir.back() == '/' ? member_dir : member_dir + "/";
   std::string missing;
   for (const char* f : {"cert.pem", "key.pem", "ca.pem", "governance.p7s", "permissions.p7s", "crl.pem"})

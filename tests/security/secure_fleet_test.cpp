@@ -27,6 +27,9 @@ using namespace std::chrono_literals;
 namespace {
 
 const std::string kProbe = CAIRN_SECURE_PROBE_BIN;
+// Its own domain: a plain base on domain 0 (a demo beside ctest) must not reach the
+// eavesdropper below. The fleet's governance names the same domain.
+const std::string kDomain = "124";
 const std::string kKeys = std::string(CAIRN_SOURCE_DIR_STR) + "/scripts/fleet-keys.sh";
 
 std::string read_file(const fs::path& p) {
@@ -38,16 +41,21 @@ std::string read_file(const fs::path& p) {
 
 int run(const std::string& cmd) { return std::system((cmd + " > /dev/null 2>&1").c_str()); }
 
-// One fleet for the whole suite: robots 1 and 2, the base, a viewer; robot 2 revoked; a
-// copy of the base's keys whose signed governance was edited.
+// One fleet for the whole suite: robots 1 and 2, the base, a viewer; robot 2 revoked, with
+// copies taken before (robot 2's keys, the base's with the old revocation list: the
+// revoked case's control); a copy of the base's keys whose signed governance was edited,
+// and an unedited copy (its control). Removed when the suite ends (it holds a CA key).
 const fs::path& fleet() {
   static const fs::path dir = [] {
     const fs::path d = fs::temp_directory_path() / ("cairn-secure-fleet-" + std::to_string(getpid()));
     fs::remove_all(d);
     const std::string k = kKeys + " ";
-    EXPECT_EQ(run(k + "init " + d.string()), 0);
+    EXPECT_EQ(run(k + "init " + d.string() + " --domain " + kDomain), 0);
     for (const char* who : {"robot 1", "robot 2", "base", "viewer"}) EXPECT_EQ(run(k + "add " + d.string() + " " + who), 0);
+    fs::copy(d / "members" / "robot-2", d / "robot-2-keys");
+    fs::copy(d / "members" / "base", d / "base-old-crl");
     EXPECT_EQ(run(k + "revoke " + d.string() + " robot-2"), 0);
+    fs::copy(d / "members" / "base", d / "untampered");
     fs::copy(d / "members" / "base", d / "tampered");
     std::string g = read_file(d / "tampered" / "governance.p7s");
     const std::size_t at = g.find("<data_protection_kind>ENCRYPT");
@@ -69,8 +77,12 @@ struct Outcome {
 // Two probes side by side; both are waited for.
 std::pair<Outcome, Outcome> pair(const std::vector<std::string>& a, const std::vector<std::string>& b) {
   std::vector<std::string> av{kProbe}, bv{kProbe};
-  av.insert(av.end(), a.begin(), a.end());
-  bv.insert(bv.end(), b.begin(), b.end());
+  av.insert(av.end(), a.begin(), a.begin() + 4);
+  av.push_back(kDomain);
+  av.insert(av.end(), a.begin() + 4, a.end());
+  bv.insert(bv.end(), b.begin(), b.begin() + 4);
+  bv.push_back(kDomain);
+  bv.insert(bv.end(), b.begin() + 4, b.end());
   Subprocess pa(av), pb(bv);
   const int sa = pa.wait(30s), sb = pb.wait(30s);
   return {{sa, pa.output()}, {sb, pb.output()}};
@@ -78,7 +90,8 @@ std::pair<Outcome, Outcome> pair(const std::vector<std::string>& a, const std::v
 
 Outcome one(const std::vector<std::string>& a) {
   std::vector<std::string> av{kProbe};
-  av.insert(av.end(), a.begin(), a.end());
+  av.insert(av.end(), a.begin(), a.begin() + 4);
+  av.push_back(kDomain);
   Subprocess p(av);
   const int s = p.wait(30s);
   return {s, p.output()};
@@ -111,16 +124,26 @@ TEST(SecureFleet, ARobotCannotWriteTasksNorTheViewerAnything) {
   EXPECT_EQ(reads.status, 2);  // the probe's own argument check, so a typo cannot pass as a refusal
 }
 
+// Robot 2's own keys, kept from before the revoke: a base with the old revocation list
+// takes its status (the control: the keys work), the base with the new one does not.
 TEST(SecureFleet, ARevokedRobotIsRefusedByTheBase) {
-  const std::string revoked = (fleet() / "revoked" / "robot-2").string();
-  auto [pub, base] = pair({revoked, "pub", "status", "4", "2"}, {member("base"), "sub", "status", "4"});
+  const std::string robot2 = (fleet() / "robot-2-keys").string();
+  auto [cpub, old_base] = pair({robot2, "pub", "status", "8", "2"}, {(fleet() / "base-old-crl").string(), "sub", "status", "8"});
+  EXPECT_EQ(old_base.status, 0) << "robot 2's keys do not work even before the revoke: " << old_base.output;
+  auto [pub, base] = pair({robot2, "pub", "status", "4", "2"}, {member("base"), "sub", "status", "4"});
   EXPECT_EQ(base.status, 5) << "the revoked robot's status arrived: " << base.output;
   EXPECT_EQ(pub.status, 5) << pub.output;
+  EXPECT_FALSE(fs::exists(fleet() / "revoked" / "robot-2" / "key.pem")) << "revoke keeps the dead key";
+  EXPECT_TRUE(fs::exists(fleet() / "revoked" / "robot-2" / "cert.pem"));
 }
 
+// The same copy of the base's keys, unedited, starts (exit 5: nothing to read, not 3).
 TEST(SecureFleet, TamperedGovernanceIsRefused) {
-  const Outcome o = one({(fleet() / "tampered").string(), "sub", "task", "2"});
+  const Outcome control = one({(fleet() / "untampered").string(), "sub", "task", "1"});
+  EXPECT_EQ(control.status, 5) << control.output;
+  const Outcome o = one({(fleet() / "tampered").string(), "sub", "task", "1"});
   EXPECT_EQ(o.status, 3) << o.output;
+  EXPECT_NE(o.output.find("participant refused"), std::string::npos) << o.output;
 }
 
 TEST(SecureFleet, AKeysDirectoryWithoutItsFilesIsAClearError) {
@@ -151,10 +174,22 @@ TEST(SecureFleet, EveryTopicHasOnePublishingRoleInTheKeysScript) {
     for (std::string w; in >> w;) s.insert(w);
     return s;
   };
-  const std::set<std::string> robot = list("robot_publishes"), base = list("base_publishes");
+  const std::set<std::string> robot = list("robot_publishes"), base = list("base_publishes"),
+                              reads = list("robot_reads");
   for (const std::string& t : names) EXPECT_EQ(robot.count(t) + base.count(t), 1u) << t;
   for (const std::string& t : robot) EXPECT_EQ(names.count(t), 1u) << "not a Cairn topic: " << t;
   for (const std::string& t : base) EXPECT_EQ(names.count(t), 1u) << "not a Cairn topic: " << t;
+  for (const std::string& t : reads) {
+    EXPECT_EQ(names.count(t), 1u) << "not a Cairn topic: " << t;
+    EXPECT_EQ(base.count(t), 1u) << "a robot reads " << t << ", which no role publishes";
+  }
 }
+
+// The fleet's directory holds a CA key: gone when the suite ends.
+class RemoveFleet : public ::testing::Environment {
+ public:
+  void TearDown() override { fs::remove_all(fs::temp_directory_path() / ("cairn-secure-fleet-" + std::to_string(getpid()))); }
+};
+const auto* const kRemoveFleet = ::testing::AddGlobalTestEnvironment(new RemoveFleet);
 
 }  // namespace

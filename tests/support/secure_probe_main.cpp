@@ -2,7 +2,7 @@
 // fleet member's keys (or not: "none"), that publishes or reads one Cairn topic for a
 // bounded time and says what happened (tests/security/secure_fleet_test.cpp).
 //
-//   cairn-test-secure-probe KEYS|none pub|sub task|status SECONDS [ROBOT_ID]
+//   cairn-test-secure-probe KEYS|none pub|sub task|status SECONDS DOMAIN [ROBOT_ID]
 //
 // A publisher stops 1 s after a reader matched.
 // Exit status: 0 a reader matched (pub) / samples arrived (sub); 3 the participant was
@@ -28,10 +28,11 @@ namespace {
 
 template <typename T>
 int publish(const dds::Participant& pp, const T& sample, Nanos deadline) {
+  std::unique_ptr<dds::Topic<T>> topic;
   std::unique_ptr<dds::Writer<T>> w;
   try {
-    dds::Topic<T> topic(pp);
-    w = std::make_unique<dds::Writer<T>>(pp, topic, dds::state_qos(1));
+    topic = std::make_unique<dds::Topic<T>>(pp);
+    w = std::make_unique<dds::Writer<T>>(pp, *topic, dds::state_qos(1));
   } catch (const dds::DdsError& e) {
     std::printf("writer refused: %s\n", e.what());
     return 4;
@@ -76,20 +77,23 @@ int subscribe(const dds::Participant& pp, Nanos deadline) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 5) {
-    std::fprintf(stderr, "usage: %s KEYS|none pub|sub task|status SECONDS [ROBOT_ID]\n", argv[0]);
+  if (argc < 6) {
+    std::fprintf(stderr, "usage: %s KEYS|none pub|sub task|status SECONDS DOMAIN [ROBOT_ID]\n", argv[0]);
     return 2;
   }
   const std::string keys = argv[1], mode = argv[2], topic = argv[3];
   const double seconds = std::atof(argv[4]);
-  const int robot = argc > 5 ? std::atoi(argv[5]) : 1;
-  if ((mode != "pub" && mode != "sub") || (topic != "task" && topic != "status") || !(seconds > 0)) {
+  const int domain = std::atoi(argv[5]);
+  const int robot = argc > 6 ? std::atoi(argv[6]) : 1;
+  if ((mode != "pub" && mode != "sub") || (topic != "task" && topic != "status") || !(seconds > 0) || domain < 1 ||
+      domain > 230) {
     std::fprintf(stderr, "secure-probe: bad arguments\n");
     return 2;
   }
   std::unique_ptr<dds::Participant> pp;
   try {
-    const dds::DdsProfile profile = keys == "none" ? dds::loopback_profile() : dds::secured(dds::loopback_profile(), keys);
+    const dds::DdsProfile plain = dds::loopback_profile(static_cast<std::uint32_t>(domain));
+    const dds::DdsProfile profile = keys == "none" ? plain : dds::secured(plain, keys);
     pp = std::make_unique<dds::Participant>(profile);
   } catch (const std::exception& e) {
     std::printf("participant refused: %s\n", e.what());

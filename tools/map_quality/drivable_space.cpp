@@ -29,7 +29,11 @@ std::vector<std::uint8_t> drivable_space(const hil::World& world, const GridGeom
                                          double radius_m) {
   if (!(std::isfinite(radius_m) && radius_m > 0))
     throw std::invalid_argument("drivable space: robot radius must be finite and > 0 (got " + std::to_string(radius_m) + ")");
-  const int k = std::max(1, static_cast<int>(std::ceil(map.resolution / kFineMaxM - 1e-9)));
+  // Odd: a map cell's centre is then a fine cell's centre, not a corner between four.
+  int k = std::max(1, static_cast<int>(std::ceil(map.resolution / kFineMaxM - 1e-9)));
+  if (k % 2 == 0) ++k;
+  if (static_cast<double>(map.width) * k * static_cast<double>(map.height) * k > 2e8)
+    throw std::invalid_argument("drivable space: the map is too large for a raster of at most 5 cm");
   GridGeometry fine = map;
   fine.resolution = map.resolution / k;
   fine.width = map.width * k;
@@ -81,9 +85,10 @@ std::vector<std::uint8_t> drivable_space(const hil::World& world, const GridGeom
     }
     if (on_edge) edge.push_back(queue[head]);
   }
-  // Swept: the reached centres and every point within radius_m of one. A point within
-  // radius_m of a reached centre is within radius_m of the last reached cell on the
-  // segment between them, an edge cell: the edge cells' discs suffice.
+  // Swept: the reached centres and every point within radius_m of one. For a point p within
+  // radius_m of a reached centre c but not itself reached, the lattice disc about p is
+  // 4-connected and holds c: a 4-path in it from c meets an unreached cell, and the reached
+  // cell before that is an edge cell within radius_m of p. The edge cells' discs suffice.
   std::vector<std::uint8_t> swept = reached;
   const double r_cells = radius_m / fine.resolution;
   for (const std::uint32_t c : edge)

@@ -56,7 +56,8 @@ void RecordEncoder::end_record(std::size_t start) {
 Writer::Writer(const std::string& path, std::string_view profile, std::string_view library, bool overwrite)
     : path_(path) {
   // Never truncates a recording by accident.
-  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | (overwrite ? O_TRUNC : O_EXCL), 0644);
+  // 0600: a recording holds every topic in the clear, also a secure fleet's (docs/security.md).
+  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | (overwrite ? O_TRUNC : O_EXCL), 0600);
   if (fd_ < 0) throw WriteError(path + ": cannot create: " + std::strerror(errno));
   enc_.bytes(kMagic.data(), kMagic.size());
   const std::size_t h = enc_.begin_record(static_cast<std::uint8_t>(Op::kHeader));

@@ -28,7 +28,8 @@ double parse_rate(const std::string& s) {
     r = std::stod(s, &used);
   } catch (const std::exception&) {
   }
-  if (used != s.size() || !(r >= 0) || r > 1e6) throw std::invalid_argument("--rate: a factor >= 0 or 'max', not '" + s + "'");
+  if (used != s.size() || !(r == 0 || (r >= 1e-3 && r <= 1e6)))
+    throw std::invalid_argument("--rate: 0, 'max' or a factor in [0.001, 1e6], not '" + s + "'");
   return r;
 }
 

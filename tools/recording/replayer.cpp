@@ -1,5 +1,6 @@
 #include "tools/recording/replayer.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <stdexcept>
 
@@ -61,7 +62,9 @@ ReplayResult Replayer::run(const std::function<bool()>& stop, const std::functio
     }
     last_log = std::max(last_log, m.log_time);
     if (opt_.rate > 0 && m.log_time > first_log) {
-      const double due_s = static_cast<double>(m.log_time - first_log) * 1e-9 / opt_.rate;
+      // Capped (31 years) so that a hostile log time cannot overflow the conversion; a wait
+      // that long still ends on SIGINT.
+      const double due_s = std::min(static_cast<double>(m.log_time - first_log) * 1e-9 / opt_.rate, 1e9);
       const Nanos due = start + seconds_to_nanos(due_s);
       // In slices, so a stop request is seen during a long pause in the recording.
       while (clock.now() < due && !stop()) clock.sleep_until(std::min(due, clock.now() + 100 * kNanosPerMilli));
