@@ -6,6 +6,7 @@
 #   scripts/setup-deps.sh --peers    also the peer baselines used by benchmarks (MRPT)
 #   scripts/setup-deps.sh --vm       also what the qemu VM bench needs
 #   scripts/setup-deps.sh --cross    also the aarch64/armhf cross toolchains and target libraries
+#   scripts/setup-deps.sh --web      also chromium, node and npm (scripts/web-browser-test.sh)
 set -euo pipefail
 
 core=(
@@ -17,11 +18,7 @@ core=(
   googletest libgtest-dev libgmock-dev libbenchmark-dev
   libsystemd-dev dpkg-dev openssh-client openssh-server
   mount fdisk e2fsprogs xz-utils openssl
-  chromium nodejs   # the web view's browser tests (tests/web: puppeteer-core drives chromium)
 )
-# npm for puppeteer-core: Debian's package, unless a nodejs that bundles npm is installed
-# (Debian's npm would conflict with it).
-command -v npm >/dev/null || core+=(npm)
 extra=()
 vm_kernel=0
 for arg in "$@"; do
@@ -29,7 +26,10 @@ for arg in "$@"; do
     --peers) extra+=(libmrpt-dev) ;;
     --vm) extra+=(qemu-system-x86 busybox-static cpio); vm_kernel=1 ;;
     --cross) extra+=(g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user qemu-user-static) ;;
-    -h|--help) sed -n '2,9p' "$0"; exit 0 ;;
+    # The web view's browser test (scripts/web-browser-test.sh): chromium, node and npm for
+    # puppeteer-core; Debian's npm only when no nodejs bundling its own is installed.
+    --web) extra+=(chromium nodejs); command -v npm >/dev/null || extra+=(npm) ;;
+    -h|--help) sed -n '2,10p' "$0"; exit 0 ;;
     *) echo "setup-deps: unknown option '$arg' (try --help)" >&2; exit 2 ;;
   esac
 done
