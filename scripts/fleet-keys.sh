@@ -10,6 +10,8 @@
 #   scripts/fleet-keys.sh add DIR base [NAME]                the base station (default name: base)
 #   scripts/fleet-keys.sh add DIR viewer [NAME]              a read-only member (default: viewer)
 #   scripts/fleet-keys.sh add DIR bench NAME                 cairn-bench-dds's topics only (the cost of security)
+#   scripts/fleet-keys.sh renew DIR NAME                     NAME gets a new key and certificate (--days from
+#                                                            now); the old certificate is revoked
 #   scripts/fleet-keys.sh revoke DIR NAME                    NAME leaves the fleet: its certificate is revoked
 #   scripts/fleet-keys.sh crl DIR                            sign the revocation list again (before it expires)
 #   scripts/fleet-keys.sh list DIR                           the members and their roles
@@ -23,6 +25,7 @@
 #   members/NAME/permissions.xml .p7s  what NAME may publish and read (by role)
 #   members/NAME/ca.pem governance.p7s crl.pem  copies: a member's directory is all its host needs
 #   revoked/NAME                  a revoked member's old directory, kept for the record
+#   revoked/NAME.SERIAL           a renewed member's old certificate (its key deleted)
 # After a revoke, every member's crl.pem is replaced here; copy the members' directories
 # to their hosts again: a member refuses a peer whose certificate its crl.pem lists. The
 # list itself expires after --days: sign it again before (crl) and copy it out likewise.
@@ -52,6 +55,23 @@ gencrl() {  # DIR: the CRL from the CA's record, copied to every member
   local m
   for m in "$1"/members/*/; do [[ -d $m ]] && cp "$1/crl.pem" "$m/crl.pem"; done
   return 0
+}
+
+issue() {  # DIR NAME ROLE DEST: a new key, certificate and signed permissions for NAME in DEST
+  local dir=$1 name=$2 role=$3 m=$4 domain days
+  domain=$(cat "$dir/domain") days=$(cat "$dir/days")
+  rm -rf "$m"
+  mkdir -p "$m"
+  (umask 077; openssl req -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -subj "$(subject "$name")" \
+    -keyout "$m/key.pem" -out "$m/req.pem" 2>/dev/null) || { rm -rf "$m"; die "creating $name's key failed"; }
+  openssl ca -batch -notext -config "$dir/ca/openssl.cnf" -in "$m/req.pem" -out "$m/cert.pem" 2>/dev/null ||
+    { rm -rf "$m"; die "signing $name's certificate failed"; }
+  rm -f "$m/req.pem"
+  echo "$role" > "$m/role"
+  permissions_xml "$name" "$role" "$domain" "$(date -u +%Y-%m-%dT%H:%M:%S)" \
+    "$(date -u -d "+$days days" +%Y-%m-%dT%H:%M:%S)" > "$m/permissions.xml"
+  sign "$dir" "$m/permissions.xml" "$m/permissions.p7s"
+  cp "$dir/ca/ca.pem" "$dir/governance.p7s" "$dir/crl.pem" "$m/"
 }
 
 topics_xml() { local t; for t in $1; do echo "            <topic>$t</topic>"; done; }
@@ -220,20 +240,29 @@ EOF
     esac
     [[ $name =~ ^[A-Za-z0-9._-]+$ ]] || die "add: a name is letters, digits, '.', '_' or '-', not '$name'"
     m="$dir/members/$name"
-    [[ ! -e $m ]] || die "add: $name is already a member (revoke it first to re-issue)"
-    domain=$(cat "$dir/domain") days=$(cat "$dir/days")
-    mkdir -p "$m"
-    (umask 077; openssl req -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -subj "$(subject "$name")" \
-      -keyout "$m/key.pem" -out "$m/req.pem" 2>/dev/null) || die "add: creating $name's key failed"
-    openssl ca -batch -notext -config "$dir/ca/openssl.cnf" -in "$m/req.pem" -out "$m/cert.pem" 2>/dev/null ||
-      die "add: signing $name's certificate failed"
-    rm -f "$m/req.pem"
-    echo "$role" > "$m/role"
-    permissions_xml "$name" "$role" "$domain" "$(date -u +%Y-%m-%dT%H:%M:%S)" \
-      "$(date -u -d "+$days days" +%Y-%m-%dT%H:%M:%S)" > "$m/permissions.xml"
-    sign "$dir" "$m/permissions.xml" "$m/permissions.p7s"
-    cp "$dir/ca/ca.pem" "$dir/governance.p7s" "$dir/crl.pem" "$m/"
+    [[ ! -e $m ]] || die "add: $name is already a member (renew it for a new certificate)"
+    issue "$dir" "$name" "$role" "$m"
     echo "fleet-keys: $name ($role) added: $m (its configuration: [dds] keys = \"$m\", or that directory copied to its host)"
+    ;;
+  renew)
+    name=${1:-}
+    [[ $name =~ ^[A-Za-z0-9._-]+$ && $name != . && $name != .. && -d $dir/members/$name ]] ||
+      die "renew: no member '$name' in $dir"
+    m="$dir/members/$name"
+    role=$(cat "$m/role")
+    old_serial=$(openssl x509 -in "$m/cert.pem" -noout -serial | cut -d= -f2)
+    issue "$dir" "$name" "$role" "$m.new"
+    # The old certificate is revoked (superseded): a copy left on a host or a stolen card
+    # stops working as soon as the members hold the new revocation list.
+    openssl ca -batch -config "$dir/ca/openssl.cnf" -revoke "$m/cert.pem" -crl_reason superseded 2>/dev/null ||
+      { rm -rf "$m.new"; die "renew: revoking $name's old certificate failed"; }
+    mkdir -p "$dir/revoked"
+    rm -rf "$dir/revoked/$name.$old_serial"
+    mv "$m" "$dir/revoked/$name.$old_serial"
+    rm -f "$dir/revoked/$name.$old_serial/key.pem"
+    mv "$m.new" "$m"
+    gencrl "$dir"
+    echo "fleet-keys: $name renewed ($(openssl x509 -in "$m/cert.pem" -noout -enddate | sed 's/notAfter=/until /'); old certificate $old_serial revoked): copy $m to its host and the members' crl.pem to theirs"
     ;;
   revoke)
     name=${1:-}
@@ -257,8 +286,14 @@ EOF
     [[ -d $dir/members ]] || die "list: $dir holds no fleet"
     for m in "$dir"/members/*/; do
       [[ -d $m ]] || continue
-      echo "$(basename "$m") $(cat "$m/role") $(openssl x509 -in "$m/cert.pem" -noout -enddate | sed 's/notAfter=/until /')"
+      note=""
+      openssl x509 -in "$m/cert.pem" -noout -checkend $((30 * 86400)) >/dev/null || note=" (ends within 30 days: renew it)"
+      echo "$(basename "$m") $(cat "$m/role") $(openssl x509 -in "$m/cert.pem" -noout -enddate | sed 's/notAfter=/until /')$note"
     done
+    end=$(openssl crl -in "$dir/crl.pem" -noout -nextupdate | cut -d= -f2)
+    note=""
+    (($(date -d "$end" +%s) < $(date +%s) + 30 * 86400)) && note=" (within 30 days: run crl)"
+    echo "revocation list until $end$note"
     ;;
   *) die "unknown command '$cmd' (try --help)" ;;
 esac

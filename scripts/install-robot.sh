@@ -16,6 +16,12 @@
 #                          /etc/cairn/robot.toml
 #   --dds-profile FILE.xml this robot's Cyclone DDS profile; becomes /etc/cairn/dds.xml, and
 #                          the configuration must say  [dds] profile = "/etc/cairn/dds.xml"
+#   --keys DIR             this robot's DDS Security keys (scripts/fleet-keys.sh add FLEET robot ID
+#                          made DIR = FLEET/members/robot-ID); become /etc/cairn/keys, readable
+#                          by the service user only; the configuration must say
+#                          [dds] profile = "secure" (or "secure-loopback"), keys = "/etc/cairn/keys".
+#                          Refused unless they are this robot's, verify against their CA and
+#                          revocation list, and the key is the certificate's
 #   --root DIR             install into DIR on the target instead of / (a staging or test
 #                          root: dependencies are not installed, nothing is restarted unless
 #                          --restart-command says so)
@@ -24,10 +30,10 @@
 set -euo pipefail
 
 die() { echo "install-robot: $*" >&2; exit 1; }
-usage() { sed -n '2,26p' "$0"; }
+usage() { sed -n '2,29p' "$0"; }
 shq() { local q="'\\''"; printf "'%s'" "${1//\'/$q}"; }  # single-quoted for the target's sh
 
-target="" port=22 identity="" package="" config="" dds_profile="" root="/" restart_cmd="" dry_run=0
+target="" port=22 identity="" package="" config="" dds_profile="" keys="" root="/" restart_cmd="" dry_run=0
 ssh_opts=(-o BatchMode=yes -o ConnectTimeout=10 -o LogLevel=ERROR)
 while (($#)); do
   case "$1" in
@@ -38,6 +44,7 @@ while (($#)); do
     --package) package=${2:?--package needs a value}; shift 2 ;;
     --config) config=${2:?--config needs a value}; shift 2 ;;
     --dds-profile) dds_profile=${2:?--dds-profile needs a value}; shift 2 ;;
+    --keys) keys=${2:?--keys needs a value}; shift 2 ;;
     --root) root=${2:?--root needs a value}; shift 2 ;;
     --restart-command) restart_cmd=${2:?--restart-command needs a value}; shift 2 ;;
     --dry-run) dry_run=1; shift ;;
@@ -64,20 +71,28 @@ if [[ -n "$dds_profile" ]]; then
   grep -Eq '^[[:space:]]*profile[[:space:]]*=[[:space:]]*"/etc/cairn/dds.xml"' "$config" ||
     die "'$config' must use the installed profile: [dds] profile = \"/etc/cairn/dds.xml\""
 fi
+here=$(cd "$(dirname "$0")/.." && pwd)
+# shellcheck source=SCRIPTDIR/lib/robot-keys.sh disable=SC1091
+source "$here/scripts/lib/robot-keys.sh"
+if [[ -n "$keys" ]]; then
+  command -v openssl >/dev/null || die "--keys: openssl is needed to check the keys (apt-get install openssl)"
+  why=$(check_robot_keys "$keys" "$config") || die "keys refused: $why"
+fi
 # Validate the configuration with a cairn-robot of this machine, when there is one
 # ($CAIRN_ROBOT_BIN, then PATH, then this checkout's build).
 checker=""
-here=$(cd "$(dirname "$0")/.." && pwd)
 for c in "${CAIRN_ROBOT_BIN:-}" "$(command -v cairn-robot || true)" "$here"/build/release/firmware/cairn-robot \
          "$here"/build/ci/firmware/cairn-robot; do
   if [[ -n "$c" && -x "$c" ]]; then checker=$c; break; fi
 done
 if [[ -n "$checker" ]]; then
   checked=$config
-  if [[ -n "$dds_profile" ]]; then  # the profile is not at /etc/cairn/dds.xml here yet: check against the file given
+  if [[ -n "$dds_profile" || -n "$keys" ]]; then  # not at /etc/cairn yet: check against the files given
     checked=$(mktemp --suffix=.toml)
     trap 'rm -f "$checked"' EXIT
-    sed "s|\"/etc/cairn/dds.xml\"|\"$(realpath "$dds_profile")\"|" "$config" >"$checked"
+    cp "$config" "$checked"
+    [[ -z "$dds_profile" ]] || sed -i "s|\"/etc/cairn/dds.xml\"|\"$(realpath "$dds_profile")\"|" "$checked"
+    [[ -z "$keys" ]] || sed -Ei "s|\"/etc/cairn/keys/?\"|\"$(realpath "$keys")\"|" "$checked"
   fi
   summary=$("$checker" --config "$checked" --check-config 2>&1) || die "configuration rejected: ${summary//$checked/$config}"
   echo "install-robot: $(echo "$summary" | tail -n 1)"
@@ -110,6 +125,9 @@ mkdir -p $r/var/log
 \$SUDO install -D -m 0644 $stage/robot.toml $r/etc/cairn/robot.toml"
 [[ -n "$dds_profile" ]] && remote_script+="
 \$SUDO install -D -m 0644 $stage/dds.xml $r/etc/cairn/dds.xml"
+[[ -n "$keys" ]] && remote_script+="
+\$SUDO sh -c $(shq "$(declare -f install_robot_keys)
+install_robot_keys $stage/keys '$r'")"
 [[ -n "$check_step" ]] && remote_script+="
 $check_step"
 [[ -n "$restart_cmd" ]] && remote_script+="
@@ -122,6 +140,7 @@ steps=("${ssh_cmd[*]} $target 'mkdir -m 0700 $stage'"
        "${ssh_cmd[*]} $target 'cat > $stage/pkg.deb' < $package"
        "${ssh_cmd[*]} $target 'cat > $stage/robot.toml' < $config")
 [[ -n "$dds_profile" ]] && steps+=("${ssh_cmd[*]} $target 'cat > $stage/dds.xml' < $dds_profile")
+[[ -n "$keys" ]] && steps+=("tar -C $keys -cf - $robot_key_files | ${ssh_cmd[*]} $target 'mkdir -m 0700 $stage/keys && tar -C $stage/keys -xf -'")
 steps+=("${ssh_cmd[*]} $target sh -s <<'EOF'"$'\n'"$remote_script"$'\n'"EOF")
 [[ -n "$restart_cmd" ]] || echo "install-robot: staging root: the service is not restarted (give --restart-command to run one)"
 if ((dry_run)); then
@@ -133,10 +152,15 @@ fi
 remote() { "${ssh_cmd[@]}" "$target" "$@"; }
 echo "install-robot: [1/3] connecting, staging in $stage"
 remote "mkdir -m 0700 $stage" || die "cannot reach $target on port $port over ssh (see the ssh error above)"
-echo "install-robot: [2/3] copying the package and the configuration"
+echo "install-robot: [2/3] copying the package and the configuration${keys:+ and the keys}"
 remote "cat > $stage/pkg.deb" < "$package"
 remote "cat > $stage/robot.toml" < "$config"
 [[ -n "$dds_profile" ]] && remote "cat > $stage/dds.xml" < "$dds_profile"
+if [[ -n "$keys" ]]; then
+  # shellcheck disable=SC2086  # the file names: one word each
+  tar -C "$keys" -cf - $robot_key_files | remote "mkdir -m 0700 $stage/keys && tar -C $stage/keys -xf -" ||
+    die "copying the keys to $target failed"
+fi
 echo "install-robot: [3/3] installing${restart_cmd:+ and restarting}"
 if ! remote sh -s <<<"$remote_script"; then
   remote "rm -rf $stage" || true

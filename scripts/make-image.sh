@@ -13,6 +13,11 @@
 #                           (default: the package's example configuration)
 #   --dds-profile FILE.xml  a Cyclone DDS profile, becomes /etc/cairn/dds.xml; the
 #                           configuration must then say  [dds] profile = "/etc/cairn/dds.xml"
+#   --keys DIR              the robot's DDS Security keys (scripts/fleet-keys.sh add FLEET robot ID
+#                           made DIR = FLEET/members/robot-ID), become /etc/cairn/keys readable by
+#                           the service user only; needs a --config with [dds] profile = "secure"
+#                           and keys = "/etc/cairn/keys". Refused unless they are that robot's and
+#                           verify against their CA and revocation list (docs/security.md)
 #   --hostname NAME         (default: the configuration's [robot] name, else cairn-robot)
 #   --ssh-key FILE.pub      a public key allowed to log in as root over SSH (repeatable).
 #                           Password logins are off, root has no password: without a key
@@ -35,12 +40,12 @@ set -euo pipefail
 prog=make-image
 here=$(cd "$(dirname "$0")/.." && pwd)
 die() { echo "$prog: $1" >&2; exit "${2:-1}"; }  # MESSAGE [EXIT-STATUS]
-usage() { sed -n '2,29p' "$0"; }
+usage() { sed -n '2,34p' "$0"; }
 t0=$SECONDS
 stage() { echo "$prog: [$((SECONDS - t0)) s] $*"; }
 
 # ---- arguments
-target="" out="" package="" config="" dds_profile="" hostname="" size=2G work="" apt_cache=""
+target="" out="" package="" config="" dds_profile="" keys="" hostname="" size=2G work="" apt_cache=""
 mirror=http://deb.debian.org/debian
 ssh_keys=()
 value() { [[ $# -ge 2 && -n "$2" ]] || { echo "$prog: $1 needs a value (try --help)" >&2; exit 2; }; }
@@ -50,6 +55,7 @@ while (($#)); do
     --package) value "$@"; package=$2; shift 2 ;;
     --config) value "$@"; config=$2; shift 2 ;;
     --dds-profile) value "$@"; dds_profile=$2; shift 2 ;;
+    --keys) value "$@"; keys=$2; shift 2 ;;
     --hostname) value "$@"; hostname=$2; shift 2 ;;
     --ssh-key) value "$@"; ssh_keys+=("$2"); shift 2 ;;
     --size) value "$@"; size=$2; shift 2 ;;
@@ -101,6 +107,14 @@ if [[ -n "$dds_profile" ]]; then
   grep -Eq '^[[:space:]]*profile[[:space:]]*=[[:space:]]*"/etc/cairn/dds.xml"' "$config" ||
     die "'$config' must use the image's profile: [dds] profile = \"/etc/cairn/dds.xml\""
   dds_profile=$(realpath "$dds_profile")
+fi
+# shellcheck source=SCRIPTDIR/lib/robot-keys.sh disable=SC1091
+source "$here/scripts/lib/robot-keys.sh"
+if [[ -n "$keys" ]]; then
+  [[ -n "$config" ]] || die "--keys needs a --config that uses them: [dds] profile = \"secure\", keys = \"/etc/cairn/keys\""
+  command -v openssl >/dev/null || die "--keys: openssl is needed to check the keys (apt-get install openssl)"
+  why=$(check_robot_keys "$keys" "$config") || die "keys refused: $why"
+  keys=$(realpath "$keys")
 fi
 for k in "${ssh_keys[@]}"; do
   [[ -f "$k" ]] || die "SSH key '$k' not found"
@@ -192,7 +206,7 @@ cat >"$work/hook.sh" <<'HOOK'
 #!/bin/sh
 # Runs inside mmdebstrap's customize stage: $1 is the root, /dev /proc /sys are mounted.
 set -eu
-r=$1 deb=$2 config=$3 dds=$4
+r=$1 deb=$2 config=$3 dds=$4 keys=$5
 # The initramfs: made once, here, not at every trigger during the installation (each run
 # takes minutes under qemu-user); update-initramfs was diverted by the essential hook.
 rm -f "$r/usr/sbin/update-initramfs"
@@ -206,6 +220,8 @@ chroot "$r" env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-instal
 rm -f "$r/tmp/cairn-robot.deb"
 if [ -n "$config" ]; then install -m 0644 "$config" "$r/etc/cairn/robot.toml"; fi
 if [ -n "$dds" ]; then install -m 0644 "$dds" "$r/etc/cairn/dds.xml"; fi
+# The keys, for the service user only (the package's postinst made it): robot-keys.sh's function.
+if [ -n "$keys" ]; then . "$(dirname "$0")/install-robot-keys.sh" && install_robot_keys "$keys" "$r"; fi
 # The image's own cairn-robot (arm64, under qemu-user) validates the configuration it ships.
 chroot "$r" /usr/bin/cairn-robot --config /etc/cairn/robot.toml --check-config
 # GRUB as one EFI binary with the modules it needs built in: it finds the root file system by
@@ -222,6 +238,7 @@ chroot "$r" env DEBIAN_FRONTEND=noninteractive apt-get purge -y -q --auto-remove
 chroot "$r" apt-get clean
 HOOK
 chmod +x "$work/hook.sh"
+declare -f install_robot_keys >"$work/install-robot-keys.sh"
 
 stage "mmdebstrap bookworm $deb_arch (minbase + kernel, systemd, ssh, cairn-robot)"
 inc=$(IFS=,; echo "${packages[*]}")
@@ -242,7 +259,7 @@ mmdebstrap --mode=root --variant=minbase --architectures="$deb_arch" --include="
   --dpkgopt='path-include=/usr/share/doc/cairn-robot/*' \
   "${cache_hooks[@]}" \
   --essential-hook="$divert_hook" \
-  --customize-hook="\"$work/hook.sh\" \"\$1\" \"$package\" \"${config:-}\" \"${dds_profile:-}\"" \
+  --customize-hook="\"$work/hook.sh\" \"\$1\" \"$package\" \"${config:-}\" \"${dds_profile:-}\" \"${keys:-}\"" \
   --customize-hook="mv \"\$1/tmp/BOOTAA64.EFI\" \"$work/BOOTAA64.EFI\"" \
   bookworm "$root" \
   "deb $mirror bookworm main" "deb $mirror bookworm-updates main" \

@@ -72,6 +72,15 @@ expect 1 "DDS profile '.*/missing.xml' not found" "$mk" aarch64 "${ok[@]}" --con
 expect 1 'not a Cyclone DDS configuration' "$mk" aarch64 "${ok[@]}" --config "$tmp/fleet.toml" --dds-profile "$tmp/bad.xml"
 expect 1 '--dds-profile needs a --config' "$mk" aarch64 "${ok[@]}" --dds-profile "$tmp/fleet.xml"
 expect 1 'must use the image.s profile' "$mk" aarch64 "${ok[@]}" --config "$tmp/loopback.toml" --dds-profile "$tmp/fleet.xml"
+# --keys: a robot's own DDS Security keys only (scripts/lib/robot-keys.sh checks them; the
+# install itself is install_robot_test's, the same function).
+"$src/scripts/fleet-keys.sh" init "$tmp/fleet" >/dev/null && "$src/scripts/fleet-keys.sh" add "$tmp/fleet" robot 3 >/dev/null &&
+  "$src/scripts/fleet-keys.sh" add "$tmp/fleet" robot 4 >/dev/null || { echo "FAIL: fleet-keys.sh"; fails=$((fails + 1)); }
+printf '[robot]\nid = 3\n[dds]\nprofile = "secure"\ninterface = "eth0"\npeers = ["10.0.0.1"]\nkeys = "/etc/cairn/keys"\n' >"$tmp/secure.toml"
+expect 1 '--keys needs a --config' "$mk" aarch64 "${ok[@]}" --keys "$tmp/fleet/members/robot-3"
+expect 1 "keys refused: keys directory '.*/nokeys' not found" "$mk" aarch64 "${ok[@]}" --config "$tmp/secure.toml" --keys "$tmp/nokeys"
+expect 1 'keys refused: .*must be "secure"' "$mk" aarch64 "${ok[@]}" --config "$tmp/loopback.toml" --keys "$tmp/fleet/members/robot-3"
+expect 1 "keys refused: the keys in .* are robot-4's, the configuration is robot 3's" "$mk" aarch64 "${ok[@]}" --config "$tmp/secure.toml" --keys "$tmp/fleet/members/robot-4"
 expect 1 "SSH key '.*/nokey.pub' not found" "$mk" aarch64 "${ok[@]}" --ssh-key "$tmp/nokey.pub"
 expect 1 'not an OpenSSH public key' "$mk" aarch64 "${ok[@]}" --ssh-key "$tmp/key"
 expect 1 'cannot write' "$mk" aarch64 --package "$tmp/robot-arm64.deb" --ssh-key "$tmp/key.pub" --out "$tmp/nodir/robot.img"

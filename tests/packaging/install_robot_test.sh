@@ -98,7 +98,52 @@ sed -i 's/^name = .*/name = "robot-7b"/' "$work/robot-7.toml"
 grep -q 'name = "robot-7b"' "$root/etc/cairn/robot.toml" || fail "the second install did not update the configuration"
 [[ $(grep -c restarted "$root/restarts") == 2 ]] || fail "the second install did not restart"
 
-# 4. Clear refusals, before anything is sent.
+# 4. With the robot's DDS Security keys (scripts/fleet-keys.sh): installed as /etc/cairn/keys,
+# readable by the service user only; keys that are not this robot's, or revoked, never leave.
+fleet="$work/fleet"
+"$src/scripts/fleet-keys.sh" init "$fleet" >/dev/null || fail "fleet-keys.sh init failed"
+"$src/scripts/fleet-keys.sh" add "$fleet" robot 7 >/dev/null && "$src/scripts/fleet-keys.sh" add "$fleet" robot 8 >/dev/null ||
+  fail "fleet-keys.sh add failed"
+sed -e 's/^id = .*/id = 7/' -e 's/^name = .*/name = "robot-7"/' \
+    -e 's|^profile = .*|profile = "secure-loopback"\nkeys = "/etc/cairn/keys"|' "$src/config/robot.toml" >"$work/robot-7s.toml"
+keys_cmd=("$src/scripts/install-robot.sh" --target "$user@127.0.0.1" --port "$port" --identity "$work/client_key"
+          --ssh-option StrictHostKeyChecking=no --ssh-option UserKnownHostsFile=/dev/null
+          --package "$deb" --config "$work/robot-7s.toml" --root "$root" --restart-command "echo restarted >> $root/restarts")
+out=$("${keys_cmd[@]}" --keys "$fleet/members/robot-7" --dry-run) || fail "dry run with keys failed: $out"
+grep -q "tar -C $fleet/members/robot-7 -cf - cert.pem key.pem" <<<"$out" || fail "the dry run did not show the keys' copy: $out"
+# A staging root without the service user: installed, root's, with a warning.
+out=$("${keys_cmd[@]}" --keys "$fleet/members/robot-7" 2>&1) || fail "install with keys failed: $out"
+grep -q "no user cairn in $root/etc/passwd" <<<"$out" || fail "no warning about the missing service user: $out"
+[[ $(stat -c %u "$root/etc/cairn/keys/key.pem") == 0 ]] || fail "keys not root's without a service user"
+# With the service user (as the package's postinst makes it on a robot): the keys are its own.
+echo "cairn:x:4242:4242::/nonexistent:/usr/sbin/nologin" >>"$root/etc/passwd"
+"${keys_cmd[@]}" --keys "$fleet/members/robot-7" >/dev/null 2>&1 || fail "second install with keys failed"
+[[ $(stat -c %a:%u:%g "$root/etc/cairn/keys") == 500:4242:4242 ]] ||
+  fail "/etc/cairn/keys is $(stat -c %a:%u:%g "$root/etc/cairn/keys"), want 500:4242:4242 (the service user's only)"
+for f in cert.pem key.pem ca.pem governance.p7s permissions.p7s crl.pem; do
+  [[ $(stat -c %a:%u:%g "$root/etc/cairn/keys/$f") == 400:4242:4242 ]] ||
+    fail "/etc/cairn/keys/$f is $(stat -c %a:%u:%g "$root/etc/cairn/keys/$f"), want 400:4242:4242"
+  cmp -s "$fleet/members/robot-7/$f" "$root/etc/cairn/keys/$f" || fail "/etc/cairn/keys/$f is not robot 7's"
+done
+ls -d "$root"/etc/cairn/keys.* >/dev/null 2>&1 && fail "an old or half-made keys directory was left behind"
+if [[ "$(dpkg-deb -f "$deb" Architecture)" == "$(dpkg --print-architecture)" ]]; then
+  sed "s|\"/etc/cairn/keys\"|\"$root/etc/cairn/keys\"|" "$root/etc/cairn/robot.toml" >"$work/installed-s.toml"
+  # The secure profile refuses a keys directory it cannot read whole: this passes only with the keys.
+  check=$("$root/usr/bin/cairn-robot" --config "$work/installed-s.toml" --check-config 2>&1) || fail "installed secure config invalid: $check"
+fi
+msg=$("${keys_cmd[@]}" --keys "$fleet/members/robot-8" 2>&1) && fail "robot 8's keys were installed on robot 7"
+grep -q "keys refused: the keys in .* are robot-8's, the configuration is robot 7's" <<<"$msg" || fail "unclear error for another robot's keys: $msg"
+cp -r "$fleet/members/robot-7" "$work/old-7"
+"$src/scripts/fleet-keys.sh" renew "$fleet" robot-7 >/dev/null || fail "fleet-keys.sh renew failed"
+cp "$fleet/crl.pem" "$work/old-7/crl.pem"  # the superseded keys, with the fleet's current revocation list
+msg=$("${keys_cmd[@]}" --keys "$work/old-7" 2>&1) && fail "robot 7's superseded keys were installed"
+grep -q "keys refused: robot-7's certificate does not verify .*certificate revoked" <<<"$msg" || fail "unclear error for revoked keys: $msg"
+cmp -s "$fleet/members/robot-7/cert.pem" "$root/etc/cairn/keys/cert.pem" && fail "the renewed certificate was installed before it was sent"
+"${keys_cmd[@]}" --keys "$fleet/members/robot-7" >/dev/null 2>&1 || fail "install of the renewed keys failed"
+cmp -s "$fleet/members/robot-7/cert.pem" "$root/etc/cairn/keys/cert.pem" || fail "the renewed certificate did not replace the old one"
+echo "keys: installed 0400 for the service user only; another robot's and superseded keys refused; renewed keys replace the old"
+
+# 5. Clear refusals, before anything is sent.
 msg=$("$src/scripts/install-robot.sh" --target "$user@127.0.0.1" --port "$port" --package "$work/none.deb" \
         --config "$work/robot-7.toml" 2>&1) && fail "a missing package was accepted"
 grep -q "not found" <<<"$msg" || fail "unclear error for a missing package: $msg"
