@@ -6,8 +6,6 @@
 #include <string_view>
 
 #include "common/dds/qos.hpp"
-#include "common/dds/topic.hpp"
-#include "common/dds/topics.hpp"
 
 namespace cairn::base {
 
@@ -40,57 +38,88 @@ bool matched_with(dds_entity_t writer, const dds_guid_t& participant) {
 
 }  // namespace
 
-EstopResetResult reset_estop(const dds::Participant& pp, const EstopResetRequest& req) {
-  auto& clock = MonotonicClock::instance();
-  EstopResetMachine machine(req, clock.now());
-  dds::Topic<cairn_RobotStatus> status_topic(pp);
-  dds::Reader<cairn_RobotStatus> status(pp, status_topic, dds::state_qos(4));
-  dds::Topic<cairn_SafetyReset> reset_topic(pp);
-  dds::Writer<cairn_SafetyReset> writer(pp, reset_topic, dds::state_qos(4));
-  dds_guid_t robot_participant{};  // the participant its latest status came from
+EstopResetNode::EstopResetNode(const dds::Participant& pp, std::size_t max_running)
+    : max_running_(max_running), topic_(pp), writer_(pp, topic_, dds::state_qos(4)) {}
 
-  for (;;) {
-    const EstopResetMachine::Step step = machine.next(clock.now());
-    switch (step.action) {
-      case EstopResetMachine::Action::kDone: return machine.result();
-      case EstopResetMachine::Action::kWaitForStatus: {
-        bool got = false;
-        status.take([&](const cairn_RobotStatus& s, const dds_sample_info_t& info) {
-          if (s.robot_id != req.robot) return;
-          dds_guid_t p{};
-          if (!publisher_participant(status.handle(), info.publication_handle, &p)) return;
-          robot_participant = p;
-          machine.on_status(clock.now(), s.robot_id, static_cast<StopReason>(s.stop_reason),
-                            std::string_view(s.stop_text, strnlen(s.stop_text, sizeof s.stop_text)));
-          got = true;
-        });
-        const Nanos now = clock.now();
-        if (!got && now < step.until) status.wait(std::min<Nanos>(step.until - now, 100 * kNanosPerMilli));
-        break;
-      }
-      case EstopResetMachine::Action::kCheckMatch: {
-        // Its status came from a participant whose reset reader must be matched with our writer.
-        const bool matched = matched_with(writer.handle(), robot_participant);
-        machine.on_match(clock.now(), matched);
-        if (!matched && !machine.done()) dds_sleepfor(DDS_MSECS(10));
-        break;
-      }
-      case EstopResetMachine::Action::kSend: {
+bool EstopResetNode::start(std::uint64_t id, const EstopResetRequest& request, Nanos now, std::string* why) {
+  if (running_.contains(request.robot)) {
+    *why = "a reset for robot " + std::to_string(request.robot) + " is already under way";
+    return false;
+  }
+  if (running_.size() >= max_running_) {
+    *why = "busy: " + std::to_string(max_running_) + " resets under way";
+    return false;
+  }
+  Exchange e{id, EstopResetMachine(request, now), {}, {}};
+  e.step = e.machine.next(now);
+  running_.emplace(request.robot, std::move(e));
+  return true;
+}
+
+void EstopResetNode::on_status(dds_entity_t reader, const cairn_RobotStatus& s, const dds_sample_info_t& info, Nanos now) {
+  const auto it = running_.find(s.robot_id);
+  if (it == running_.end()) return;
+  dds_guid_t p{};
+  if (!publisher_participant(reader, info.publication_handle, &p)) return;
+  it->second.participant = p;
+  it->second.machine.on_status(now, s.robot_id, static_cast<StopReason>(s.stop_reason),
+                               std::string_view(s.stop_text, strnlen(s.stop_text, sizeof s.stop_text)));
+}
+
+bool EstopResetNode::matching() const {
+  return std::any_of(running_.begin(), running_.end(),
+                     [](const auto& kv) { return kv.second.step.action == EstopResetMachine::Action::kCheckMatch; });
+}
+
+std::vector<std::pair<std::uint64_t, EstopResetResult>> EstopResetNode::poll(Nanos now) {
+  std::vector<std::pair<std::uint64_t, EstopResetResult>> done;
+  for (auto it = running_.begin(); it != running_.end();) {
+    Exchange& e = it->second;
+    // A few steps per poll: a status may lead to a match check and a send at once; an
+    // unmatched writer is checked again at the next poll, not in a loop here.
+    for (int k = 0; k < 4; ++k) {
+      e.step = e.machine.next(now);
+      if (e.step.action == EstopResetMachine::Action::kCheckMatch) {
+        const bool matched = matched_with(writer_.handle(), e.participant);
+        e.machine.on_match(now, matched);
+        if (!matched) break;
+      } else if (e.step.action == EstopResetMachine::Action::kSend) {
         cairn_SafetyReset r{};
-        r.robot_id = req.robot;
-        r.seq = step.seq;
-        r.issued_ns = clock.now();
-        dds::set_text(r.issued_by, req.issued_by);
-        const Nanos sent_at = clock.now();
-        if (!writer.write(r)) {
-          machine.on_send_failed(dds_strretcode(writer.last_error()));
-          break;
+        r.robot_id = it->first;
+        r.seq = e.step.seq;
+        r.issued_ns = now;
+        dds::set_text(r.issued_by, e.machine.request().issued_by);
+        if (writer_.write(r)) {
+          e.machine.on_sent(now);
+        } else {
+          e.machine.on_send_failed(dds_strretcode(writer_.last_error()));
         }
-        machine.on_sent(sent_at);
-        dds_wait_for_acks(writer.handle(), std::max<Nanos>(0, std::min(machine.deadline() - clock.now(), 2 * kNanosPerSecond)));
-        break;
+      } else {
+        break;  // waiting for a status, or done
       }
     }
+    if (e.machine.done()) {
+      done.emplace_back(e.id, e.machine.result());
+      it = running_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  return done;
+}
+
+EstopResetResult reset_estop(const dds::Participant& pp, const EstopResetRequest& req) {
+  auto& clock = MonotonicClock::instance();
+  dds::Topic<cairn_RobotStatus> status_topic(pp);
+  dds::Reader<cairn_RobotStatus> status(pp, status_topic, dds::state_qos(4));
+  EstopResetNode node(pp, 1);
+  std::string why;
+  node.start(0, req, clock.now(), &why);  // the node is new: it cannot refuse
+  for (;;) {
+    status.take([&](const cairn_RobotStatus& s, const dds_sample_info_t& info) { node.on_status(status.handle(), s, info, clock.now()); });
+    for (const auto& [id, result] : node.poll(clock.now())) return result;
+    // A status wakes us; an unmatched writer is checked again after 10 ms.
+    status.wait(node.matching() ? 10 * kNanosPerMilli : 100 * kNanosPerMilli);
   }
 }
 

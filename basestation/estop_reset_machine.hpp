@@ -69,6 +69,7 @@ class EstopResetMachine {
 
   bool done() const { return phase_ == Phase::kDone; }
   Nanos deadline() const { return deadline_; }
+  const EstopResetRequest& request() const { return request_; }
   const EstopResetResult& result() const { return result_; }
 
  private:

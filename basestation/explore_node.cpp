@@ -114,13 +114,23 @@ void ExploreNode::on_nav(std::uint16_t robot, std::uint8_t nav_state, std::uint3
   }
 }
 
+void ExploreNode::set_running(bool run, Nanos now, const char* by) {
+  if (run == !allocator_.paused()) {
+    CAIRN_LOG_INFO("explore", "exploration already {} (asked by {})", run ? "running" : "stopped", by);
+    return;
+  }
+  allocator_.set_paused(!run, now);
+  CAIRN_LOG_INFO("explore", "exploration {} by {}", run ? "started again" : "stopped: robots told to idle, visits still go", by);
+}
+
 std::string ExploreNode::summary() const {
   const auto& a = allocator_.counters();
   char line[420];
   std::snprintf(line, sizeof line,
                 "explore: %s; bids %llu (unlocalised %llu, rejected %llu), rounds %llu, assigned %llu, kept %llu, "
                 "idles %llu, timeouts %llu, stuck %llu, given up %llu, visits %llu (refused %llu), written %llu (failed %llu)",
-                allocator_.explored()         ? "explored"
+                allocator_.paused()           ? "stopped by the operator"
+                : allocator_.explored()       ? "explored"
                 : allocator_.frontier_seen() ? "exploring"
                                              : "exploring (no bid has shown a frontier yet: the end waits for one)",
                 static_cast<unsigned long long>(counters_.bids_taken),

@@ -46,6 +46,8 @@ class ExploreNode {
   /// what a VisitRequest from DDS reaches, and what the web view calls in process.
   /// Counted and logged either way; returns the verdict.
   VisitVerdict request_visit(const msg::VisitRequest& v, Nanos now, const Fusion& fusion, const mapper::Mapper* map);
+  /// The operator stops (false) or starts (true) exploration: TaskAllocator::set_paused, logged.
+  void set_running(bool run, Nanos now, const char* by);
   /// One line for the console.
   std::string summary() const;
   const explore::TaskAllocator& allocator() const { return allocator_; }

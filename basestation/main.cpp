@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <map>
+#include <optional>
 
 #include "basestation/base_config.hpp"
 #include "basestation/estop_reset.hpp"
@@ -89,14 +91,23 @@ base::WebRobotStatus web_status(const cairn_RobotStatus& s) {
   w.stop_reason = s.stop_reason;
   w.stop_text = idl_text(s.stop_text);
   w.nav_state = s.nav_state;
+  w.loop_period_mean_us = s.loop_period_mean_us;
+  w.loop_period_p99_us = s.loop_period_p99_us;
+  w.loop_jitter_max_us = s.loop_jitter_max_us;
+  w.loop_cycles = s.loop_cycles;
+  w.deadline_misses = s.deadline_misses;
+  w.queue_overflows = s.queue_overflows;
   for (std::size_t i = 0; i < std::min<std::size_t>(s.n_devices, cairn_MAX_DEVICES); ++i)
     w.devices.push_back({idl_text(s.devices[i].name), idl_text(s.devices[i].reason), s.devices[i].state});
   return w;
 }
 
+constexpr std::string_view kWebIssuer = "web view";
+constexpr std::string_view kResetUnderWay = "reset under way";
+
 // A browser's visit request goes where a VisitRequest from DDS goes: the executive's checks
 // and allocator (ExploreNode::request_visit), in this thread.
-std::string web_visit(const base::WebVisit& v, base::ExploreNode* explore, const base::FusionNode* fusion,
+std::string web_visit(const base::WebCommand& v, base::ExploreNode* explore, const base::FusionNode* fusion,
                       const base::GridMapNode* map, Nanos now) {
   if (!explore) return "refused: exploration is off ([explore] enabled = false): no executive to send robots";
   msg::VisitRequest r;
@@ -104,10 +115,32 @@ std::string web_visit(const base::WebVisit& v, base::ExploreNode* explore, const
   r.issued = now;
   r.x = v.x;
   r.y = v.y;
-  constexpr std::string_view kIssuer = "web view";
-  std::copy(kIssuer.begin(), kIssuer.end(), r.issued_by.begin());  // the rest stays zero: terminated
+  std::copy(kWebIssuer.begin(), kWebIssuer.end(), r.issued_by.begin());  // the rest stays zero: terminated
   const base::VisitVerdict verdict = explore->request_visit(r, now, fusion->fusion(), map ? &map->mapper() : nullptr);
   return verdict == base::VisitVerdict::kAccepted ? "accepted" : std::string("refused: ") + base::visit_verdict_text(verdict);
+}
+
+// A browser's command, in this thread: a visit, the exploration stopped or started, or an
+// e-stop reset started (its result comes later, from the reset node's poll).
+std::string web_command(std::uint64_t id, const base::WebCommand& c, base::ExploreNode* explore, const base::FusionNode* fusion,
+                        const base::GridMapNode* map, base::EstopResetNode& resets, Nanos now) {
+  switch (c.kind) {
+    case base::WebCommandKind::kVisit: return web_visit(c, explore, fusion, map, now);
+    case base::WebCommandKind::kExplore:
+      if (!explore) return "refused: exploration is off ([explore] enabled = false)";
+      explore->set_running(c.run, now, "the web view");
+      return c.run ? "exploration running" : "exploration stopped: robots idle";
+    case base::WebCommandKind::kReset: {
+      base::EstopResetRequest req;
+      req.robot = c.robot;
+      req.issued_by = std::string(kWebIssuer);
+      std::string why;
+      if (!resets.start(id, req, now, &why)) return "refused: " + why;
+      CAIRN_LOG_INFO("base", "e-stop reset for robot {} asked by the web view", c.robot);
+      return std::string(kResetUnderWay);
+    }
+  }
+  return "refused: unknown command";
 }
 
 int run(const std::string& config_path, double duration_s) {
@@ -181,6 +214,9 @@ int run(const std::string& config_path, double duration_s) {
     std::fflush(stdout);
   }
   Nanos next_web_state = start, next_web_map = start;
+  std::optional<base::EstopResetNode> resets;  // the web view's e-stop resets, run without blocking this loop
+  if (web) resets.emplace(pp);
+  std::map<std::uint64_t, base::WebCommand> reset_commands;  // by command id, while under way
   std::uint64_t web_map_version = 0;
 
   const Nanos end = duration_s > 0 ? start + seconds_to_nanos(duration_s) : 0;
@@ -195,8 +231,9 @@ int run(const std::string& config_path, double duration_s) {
       else CAIRN_LOG_WARN("base", "map export requested (SIGUSR1) but the central map is off ([fusion] and [mapper] enabled = true)");
     }
     status_reader.take(
-        [&](const cairn_RobotStatus& s, const dds_sample_info_t&) {
+        [&](const cairn_RobotStatus& s, const dds_sample_info_t& info) {
           fleet.on_status(s.robot_id, s.name, mode_name(s.mode), s.seq, now);
+          if (resets && !resets->idle()) resets->on_status(status_reader.handle(), s, info, now);
           if (web && fleet.robots().contains(s.robot_id)) web_state.on_status(s.robot_id, web_status(s));
           if (explore) explore->on_nav(s.robot_id, s.nav_state, s.nav_task_id, now);  // a stuck robot: its task back at once
         },
@@ -217,12 +254,22 @@ int run(const std::string& config_path, double duration_s) {
                      a.clear_m2, a.obstacle_m2);
     }
     if (web) {
-      for (const base::QueuedWebCommand& c : web->take_commands())
-        web_state.on_command_result(c.id, c.visit, web_visit(c.visit, explore.get(), fusion.get(), map.get(), now));
+      for (const base::QueuedWebCommand& c : web->take_commands()) {
+        std::string result = web_command(c.id, c.command, explore.get(), fusion.get(), map.get(), *resets, now);
+        if (result == kResetUnderWay) reset_commands.emplace(c.id, c.command);
+        web_state.on_command_result(c.id, c.command, std::move(result));
+      }
+      for (const auto& [id, result] : resets->poll(now)) {
+        CAIRN_LOG_INFO("base", "web view e-stop reset: {}", result.message);
+        const auto it = reset_commands.find(id);
+        if (it == reset_commands.end()) continue;
+        web_state.on_command_result(id, it->second, (result.ok() ? "done: " : "failed: ") + result.message);
+        reset_commands.erase(it);
+      }
       if (now >= next_web_state) {
         next_web_state = now + cfg.web.state_period;
         web->publish_state(std::make_shared<const std::string>(
-            web_state.state_json(now, fleet, fusion ? &fusion->fusion() : nullptr, explore.get())));
+            web_state.state_json(now, fleet, fusion ? &fusion->fusion() : nullptr, explore ? &explore->allocator() : nullptr)));
       }
       if (map && now >= next_web_map) {
         next_web_map = now + cfg.web.map_period;

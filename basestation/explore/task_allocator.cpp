@@ -474,10 +474,27 @@ void TaskAllocator::emit(Nanos now, std::vector<msg::TaskAssignment>* out) {
   }
 }
 
+void TaskAllocator::set_paused(bool paused, Nanos now) {
+  if (paused == paused_) return;
+  paused_ = paused;
+  if (!paused) {
+    schedule_round(now, true);
+    return;
+  }
+  ++counters_.pauses;
+  for (auto& [id, r] : robots_) {
+    if (!r.alive || r.mode != Mode::kPool) continue;  // a visit or a way home goes on
+    if (r.kind != msg::TaskKind::kIdle || r.active) start_task(r, msg::TaskKind::kIdle, Vec2::Zero(), now);
+  }
+}
+
 bool TaskAllocator::tick(Nanos now, std::vector<msg::TaskAssignment>* out) {
   monitor(now);
-  if (round_due_ && now >= *round_due_) run_round(now);
-  const bool ended = check_explored(now);
+  bool ended = false;
+  if (!paused_) {  // paused: a due round waits for the resume, which runs a full one anyway
+    if (round_due_ && now >= *round_due_) run_round(now);
+    ended = check_explored(now);
+  }
   emit(now, out);
   return ended;
 }
@@ -485,7 +502,14 @@ bool TaskAllocator::tick(Nanos now, std::vector<msg::TaskAssignment>* out) {
 std::optional<TaskAllocator::TaskView> TaskAllocator::task(std::uint16_t id) const {
   const auto it = robots_.find(id);
   if (it == robots_.end()) return std::nullopt;
-  return TaskView{it->second.kind, it->second.task_id, it->second.target, it->second.active};
+  const Robot& r = it->second;
+  const bool explore = r.kind == msg::TaskKind::kExplore;
+  return TaskView{r.kind, r.task_id, r.target, r.active, explore ? r.igr : Rect{}, explore ? r.task_gain : 0.0};
+}
+
+const msg::Bid* TaskAllocator::latest_bid(std::uint16_t id) const {
+  const auto it = robots_.find(id);
+  return it == robots_.end() || !it->second.bid ? nullptr : &*it->second.bid;
 }
 
 }  // namespace cairn::explore

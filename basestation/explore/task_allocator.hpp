@@ -40,6 +40,7 @@ struct AllocatorCounters {
   std::uint64_t frontiers_given_up = 0;  // times a spot reached give_up_attempts (again after a release)
   std::uint64_t given_up_released = 0;   // given-up spots offered again with more than twice their gain
   std::uint64_t assignments_emitted = 0;
+  std::uint64_t pauses = 0;              // the operator stopped exploration (set_paused)
 };
 
 /// A stretch of frontier no robot can reach, as the executive reports it at the end of
@@ -83,6 +84,13 @@ class TaskAllocator {
   /// about an older task, or repeated after the take-back.
   bool on_stuck(std::uint16_t robot, std::uint32_t task_id, Nanos now);
 
+  /// The operator stops or starts exploration (the web view). Paused: no round runs, the end
+  /// of exploration is not judged, and every robot in the pool is told idle (it stops where
+  /// it is); visits still go, and end idle. Resumed: a full round on the robots' latest bids
+  /// at once. Repeating the current state does nothing.
+  void set_paused(bool paused, Nanos now);
+  bool paused() const { return paused_; }
+
   /// Monitoring, the pending round when due, the end of exploration; appends to *out an
   /// assignment for every robot whose task changed. Returns true on the tick on which
   /// exploration ended (once per end; a later bid with gain resumes exploration).
@@ -109,8 +117,12 @@ class TaskAllocator {
     std::uint32_t task_id = 0;  // 0: never told anything
     Vec2 target = Vec2::Zero();
     bool active = false;  // being monitored (explore, visit or going home)
+    Rect igr;             // an explore task's information-gain region (else empty)
+    double gain = 0;      // an explore task's gain, as last assigned or kept
   };
   std::optional<TaskView> task(std::uint16_t robot) const;
+  /// The robot's latest bid (null: none, or used up by an arrival).
+  const msg::Bid* latest_bid(std::uint16_t robot) const;
 
  private:
   enum class Mode { kPool, kVisit, kHome };
@@ -166,6 +178,7 @@ class TaskAllocator {
   std::optional<Nanos> round_due_;
   bool full_round_ = false;  // every pool robot takes part, not only unassigned / new-bid ones
   bool explored_ = false;
+  bool paused_ = false;
   // Exploration ends only after some bid has shown a frontier (an item, with or without
   // gain, or an unreachable cluster): at start-up the robots' first bids can be empty because
   // their maps hold no clear cell yet (every cell still near p = 0.5), which is not an

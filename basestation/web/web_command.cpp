@@ -16,7 +16,26 @@ bool finite_number(const nlohmann::json& j, const char* key, double* out) {
   return std::isfinite(*out);
 }
 
+// "robot": an integer 1..65535, signed or unsigned in JSON (compared as the widest of each).
+bool robot_id(const nlohmann::json& j, std::uint16_t* out) {
+  const auto robot = j.find("robot");
+  if (robot == j.end() || !robot->is_number_integer()) return false;
+  const bool in_range = robot->is_number_unsigned() ? robot->get<std::uint64_t>() >= 1 && robot->get<std::uint64_t>() <= 65535
+                                                     : robot->get<std::int64_t>() >= 1 && robot->get<std::int64_t>() <= 65535;
+  if (in_range) *out = static_cast<std::uint16_t>(robot->get<std::int64_t>());
+  return in_range;
+}
+
 }  // namespace
+
+const char* web_command_name(WebCommandKind k) {
+  switch (k) {
+    case WebCommandKind::kVisit: return "visit";
+    case WebCommandKind::kExplore: return "explore";
+    case WebCommandKind::kReset: return "reset";
+  }
+  return "?";
+}
 
 WebCommandParse parse_web_command(std::string_view text) {
   if (text.size() > kMaxWebCommandBytes) return fail("command longer than " + std::to_string(kMaxWebCommandBytes) + " bytes");
@@ -27,17 +46,23 @@ WebCommandParse parse_web_command(std::string_view text) {
   const auto cmd = j.find("cmd");
   if (cmd == j.end() || !cmd->is_string()) return fail("missing \"cmd\" (a string)");
   const std::string& name = cmd->get_ref<const std::string&>();
-  if (name != "visit") return fail("unknown command (known: visit)");
-  const auto robot = j.find("robot");
-  if (robot == j.end() || !robot->is_number_integer()) return fail("visit: \"robot\" must be an integer 1..65535");
-  // Signed and unsigned JSON integers alike: compare as the widest of each.
-  const bool in_range = robot->is_number_unsigned() ? robot->get<std::uint64_t>() >= 1 && robot->get<std::uint64_t>() <= 65535
-                                                     : robot->get<std::int64_t>() >= 1 && robot->get<std::int64_t>() <= 65535;
-  if (!in_range) return fail("visit: \"robot\" must be an integer 1..65535");
-  WebVisit v;
-  v.robot = static_cast<std::uint16_t>(robot->get<std::int64_t>());
-  if (!finite_number(j, "x", &v.x) || !finite_number(j, "y", &v.y)) return fail("visit: \"x\" and \"y\" must be finite numbers (m)");
-  return {v, ""};
+  WebCommand c;
+  if (name == "visit") {
+    c.kind = WebCommandKind::kVisit;
+    if (!robot_id(j, &c.robot)) return fail("visit: \"robot\" must be an integer 1..65535");
+    if (!finite_number(j, "x", &c.x) || !finite_number(j, "y", &c.y)) return fail("visit: \"x\" and \"y\" must be finite numbers (m)");
+  } else if (name == "explore") {
+    c.kind = WebCommandKind::kExplore;
+    const auto run = j.find("run");
+    if (run == j.end() || !run->is_boolean()) return fail("explore: \"run\" must be true (start) or false (stop)");
+    c.run = run->get<bool>();
+  } else if (name == "reset") {
+    c.kind = WebCommandKind::kReset;
+    if (!robot_id(j, &c.robot)) return fail("reset: \"robot\" must be an integer 1..65535");
+  } else {
+    return fail("unknown command (known: visit, explore, reset)");
+  }
+  return {c, ""};
 }
 
 }  // namespace cairn::base

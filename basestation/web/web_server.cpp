@@ -108,7 +108,7 @@ struct WebServer::Impl {
   /// Parses and queues one command; returns the JSON reply.
   std::string enqueue(std::string_view text) {
     const WebCommandParse p = parse_web_command(text);
-    if (!p.visit) {
+    if (!p.command) {
       ++counters.commands_refused;
       return nlohmann::json{{"type", "reply"}, {"ok", false}, {"error", p.error}}.dump();
     }
@@ -117,7 +117,7 @@ struct WebServer::Impl {
       const std::lock_guard lock(mu);
       if (commands.size() < kMaxQueuedCommands) {
         id = next_command_id++;
-        commands.push_back({id, *p.visit});
+        commands.push_back({id, *p.command});
       }
     }
     if (id == 0) {

@@ -35,7 +35,7 @@ struct WebCounters {
 /// A command from a browser, numbered in the order received.
 struct QueuedWebCommand {
   std::uint64_t id = 0;
-  WebVisit visit;
+  WebCommand command;
 };
 
 class WebServer {

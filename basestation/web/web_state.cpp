@@ -3,7 +3,6 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "basestation/explore_node.hpp"
 #include "basestation/mapper/export.hpp"
 #include "common/stop_reason.hpp"
 
@@ -19,6 +18,24 @@ double mm(double v) { return std::isfinite(v) ? std::round(v * 1000.0) / 1000.0 
 json ellipse(const msg::Cov2& cov) {
   const mapper::Ellipse e = mapper::covariance_ellipse(cov, 3.0);
   return {{"major", mm(e.major)}, {"minor", mm(e.minor)}, {"angle", mm(e.angle)}};
+}
+
+json rect(const explore::Rect& r) { return {mm(r.min_x), mm(r.min_y), mm(r.max_x), mm(r.max_y)}; }
+
+// A robot's latest bid: its frontier items (gain in cells, path cost in m, the region) and
+// the unreachable clusters, bounded by the IDL's MAX_BIDS and MAX_UNREACHABLE.
+json bid_json(const msg::Bid& bid) {
+  json items = json::array();
+  for (std::size_t k = 0; k < bid.n_items && k < msg::kMaxBids; ++k) {
+    const msg::BidItem& it = bid.items[k];
+    items.push_back({{"x", mm(it.x)}, {"y", mm(it.y)}, {"gain", mm(it.gain)}, {"cost", mm(it.cost)}, {"igr", rect(explore::igr_of(it))}});
+  }
+  json unreachable = json::array();
+  for (std::size_t k = 0; k < bid.n_unreachable && k < msg::kMaxUnreachable; ++k) {
+    const msg::UnreachableCluster& u = bid.unreachable[k];
+    unreachable.push_back({{"x", mm(u.x)}, {"y", mm(u.y)}, {"rect", rect({u.min_x, u.min_y, u.max_x, u.max_y})}, {"cells", u.cells}});
+  }
+  return {{"seq", bid.seq}, {"items", std::move(items)}, {"unreachable", std::move(unreachable)}};
 }
 
 const char* task_kind(msg::TaskKind k) {
@@ -58,12 +75,18 @@ void WebState::on_status(std::uint16_t robot, WebRobotStatus status) {
   status_[robot] = std::move(status);
 }
 
-void WebState::on_command_result(std::uint64_t id, const WebVisit& visit, std::string result) {
-  results_.push_back({id, visit, std::move(result)});
+void WebState::on_command_result(std::uint64_t id, const WebCommand& command, std::string result) {
+  for (Result& r : results_) {
+    if (r.id == id) {
+      r.result = std::move(result);
+      return;
+    }
+  }
+  results_.push_back({id, command, std::move(result)});
   while (results_.size() > kWebCommandHistory) results_.pop_front();
 }
 
-std::string WebState::state_json(Nanos now, const Fleet& fleet, const Fusion* fusion, const ExploreNode* explore) {
+std::string WebState::state_json(Nanos now, const Fleet& fleet, const Fusion* fusion, const explore::TaskAllocator* explore) {
   // Rows the fleet dropped (it bounds unlisted robots) are dropped here too: ids cycled by
   // a hostile publisher cannot grow these maps.
   std::erase_if(status_, [&](const auto& kv) { return !fleet.robots().contains(kv.first); });
@@ -88,6 +111,9 @@ std::string WebState::state_json(Nanos now, const Fleet& fleet, const Fusion* fu
       r["estop"] = reason == StopReason::kEstop || reason == StopReason::kResetRequired;
       r["nav_state"] = st.nav_state;
       r["devices"] = std::move(devices);
+      r["rt"] = {{"period_mean_us", mm(st.loop_period_mean_us)}, {"period_p99_us", mm(st.loop_period_p99_us)},
+                 {"jitter_max_us", mm(st.loop_jitter_max_us)},   {"cycles", st.loop_cycles},
+                 {"misses", st.deadline_misses},                 {"overflows", st.queue_overflows}};
     }
     if (fusion && fusion->correction(id, 0, &c)) {
       const Pose2& p = c.global_pose;
@@ -104,13 +130,18 @@ std::string WebState::state_json(Nanos now, const Fleet& fleet, const Fusion* fu
       r["trail"] = std::move(pts);
     }
     if (explore) {
-      if (const auto task = explore->allocator().task(id)) {
+      if (const auto task = explore->task(id)) {
         r["task"] = {{"kind", task_kind(task->kind)},
                      {"id", task->task_id},
                      {"x", mm(task->target.x())},
                      {"y", mm(task->target.y())},
                      {"active", task->active}};
+        if (task->kind == msg::TaskKind::kExplore) {
+          r["task"]["gain"] = mm(task->gain);
+          r["task"]["igr"] = rect(task->igr);
+        }
       }
+      if (const msg::Bid* bid = explore->latest_bid(id)) r["bid"] = bid_json(*bid);
     }
     robots.push_back(std::move(r));
   }
@@ -126,13 +157,34 @@ std::string WebState::state_json(Nanos now, const Fleet& fleet, const Fusion* fu
     }
   }
   json commands = json::array();
-  for (const Result& res : results_)
-    commands.push_back({{"id", res.id}, {"robot", res.visit.robot}, {"x", mm(res.visit.x)}, {"y", mm(res.visit.y)}, {"result", res.result}});
+  for (const Result& res : results_) {
+    json cmd{{"id", res.id}, {"cmd", web_command_name(res.command.kind)}, {"result", res.result}};
+    if (res.command.kind != WebCommandKind::kExplore) cmd["robot"] = res.command.robot;
+    if (res.command.kind == WebCommandKind::kVisit) {
+      cmd["x"] = mm(res.command.x);
+      cmd["y"] = mm(res.command.y);
+    }
+    if (res.command.kind == WebCommandKind::kExplore) cmd["run"] = res.command.run;
+    commands.push_back(std::move(cmd));
+  }
+  json exploration = nullptr;  // null: the base runs no exploration executive
+  if (explore) {
+    const explore::TaskAllocator& a = *explore;
+    json given_up = json::array();
+    const std::vector<Vec2> spots = a.given_up();
+    for (std::size_t i = 0; i < spots.size() && i < kWebMaxGivenUp; ++i) given_up.push_back({mm(spots[i].x()), mm(spots[i].y())});
+    exploration = {{"paused", a.paused()},
+                   {"explored", a.explored()},
+                   {"frontier_seen", a.frontier_seen()},
+                   {"rounds", a.counters().rounds},
+                   {"given_up", std::move(given_up)}};
+  }
   return json{{"type", "state"},
               {"robots", std::move(robots)},
               {"landmarks", std::move(landmarks)},
               {"landmarks_total", total},
               {"explore", explore != nullptr},
+              {"exploration", std::move(exploration)},
               {"commands", std::move(commands)}}
       .dump();
 }
@@ -141,6 +193,16 @@ std::string WebState::map_json(const ClassGrid& grid, std::uint64_t version) {
   mapper::PngOptions png;
   png.pixels_per_cell = 1;  // the page scales it; one pixel per cell keeps the message small
   const GridGeometry& g = grid.geometry;
+  json frontier = json::array();
+  std::size_t frontier_total = 0;
+  const auto unknown = [&](int i, int j) { return i >= 0 && j >= 0 && i < g.width && j < g.height && grid.at(i, j) == Cell::kUnknown; };
+  for (int j = 0; j < g.height; ++j) {
+    for (int i = 0; i < g.width; ++i) {
+      if (grid.at(i, j) != Cell::kClear) continue;
+      if (!unknown(i - 1, j) && !unknown(i + 1, j) && !unknown(i, j - 1) && !unknown(i, j + 1)) continue;
+      if (++frontier_total <= kWebMaxFrontierCells) frontier.push_back(g.index(i, j));
+    }
+  }
   return json{{"type", "map"},
               {"version", version},
               {"origin_x", g.origin_x},
@@ -148,7 +210,9 @@ std::string WebState::map_json(const ClassGrid& grid, std::uint64_t version) {
               {"resolution", g.resolution},
               {"width", g.width},
               {"height", g.height},
-              {"png", base64(mapper::render_png(grid, {}, {}, png))}}
+              {"png", base64(mapper::render_png(grid, {}, {}, png))},
+              {"frontier", std::move(frontier)},
+              {"frontier_total", frontier_total}}
       .dump();
 }
 

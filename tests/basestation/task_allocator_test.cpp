@@ -235,6 +235,49 @@ TEST(TaskAllocator, UserVisitReassignsTheOthersAndReturnsToThePoolOnArrival) {
   expect_task(out, 1, TaskKind::kExplore, 30, 30);
 }
 
+// The operator's stop (web view): the pool robots are told idle, no round runs and the end
+// is not judged while paused, a visit still goes; the resume runs a full round at once.
+TEST(TaskAllocator, PausedExplorationIdlesThePoolKeepsVisitsAndResumesWithAFullRound) {
+  TaskAllocator a = two_robots_on_a_and_b(test_config());
+  const auto view = a.task(1);
+  ASSERT_TRUE(view);
+  EXPECT_DOUBLE_EQ(view->igr.max_x, 2.0);  // the task's region, for the view
+  EXPECT_DOUBLE_EQ(view->gain, 100.0);
+  ASSERT_NE(a.latest_bid(2), nullptr);
+  EXPECT_EQ(a.latest_bid(2)->n_items, 2);
+  EXPECT_EQ(a.latest_bid(9), nullptr);
+
+  a.set_paused(true, sec(1));
+  EXPECT_TRUE(a.paused());
+  auto out = tick(a, sec(1));
+  expect_task(out, 1, TaskKind::kIdle, 0, 0);
+  expect_task(out, 2, TaskKind::kIdle, 0, 0);
+  EXPECT_FALSE(a.task(1)->active);
+  EXPECT_EQ(a.task(1)->gain, 0.0);
+  // New bids schedule no round while paused, and no bid with gain is not the end either.
+  a.on_bid(bid(1, {item(5, 5, 100, 0, {3, 3, 7, 7})}), sec(2));
+  a.on_bid(bid(2, {}), sec(2));
+  bool ended = true;
+  EXPECT_TRUE(tick(a, sec(3), &ended).empty());
+  EXPECT_FALSE(ended);
+  a.on_bid(bid(1, {}), sec(3.5));
+  EXPECT_TRUE(tick(a, sec(4), &ended).empty());
+  EXPECT_FALSE(ended) << "the end of exploration is not judged while paused";
+  // A visit goes while paused.
+  ASSERT_TRUE(a.request_visit(2, Vec2(20, 20), sec(5)));
+  expect_task(tick(a, sec(5)), 2, TaskKind::kGoto, 20, 20);
+  a.set_paused(true, sec(5.5));  // again: nothing changes
+  EXPECT_TRUE(tick(a, sec(5.5)).empty());
+  EXPECT_EQ(a.counters().pauses, 1u);
+
+  // Resumed: a full round at once on the latest bids (robot 1's now offers a frontier).
+  a.on_bid(bid(1, {item(5, 5, 100, 0, {3, 3, 7, 7})}), sec(6));
+  a.set_paused(false, sec(6.1));
+  out = tick(a, sec(6.1));
+  expect_task(out, 1, TaskKind::kExplore, 5, 5);
+  EXPECT_EQ(for_robot(out, 2), nullptr) << "robot 2's visit goes on";
+}
+
 // After reaching its frontier a robot waits for its next bid: the latest one was computed
 // short of the target and still offers the frontier it now stands on.
 TEST(TaskAllocator, ArrivalWaitsForTheRobotsNextBid) {

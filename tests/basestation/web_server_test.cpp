@@ -97,14 +97,14 @@ TEST(WebServer, NothingWithoutTheTokenAndTheRoutesWithIt) {
   EXPECT_EQ(ok.body, R"({"id":1,"ok":true,"status":"queued","type":"reply"})");
   const Reply bad = request(port, http::verb::post, "/api/command" + kQ, R"({"cmd":"dance"})");
   EXPECT_EQ(bad.status, 400);
-  EXPECT_EQ(bad.body, R"j({"error":"unknown command (known: visit)","ok":false,"type":"reply"})j");
+  EXPECT_EQ(bad.body, R"j({"error":"unknown command (known: visit, explore, reset)","ok":false,"type":"reply"})j");
   EXPECT_EQ(server.counters().commands_refused.load(), 1u);
   const std::vector<QueuedWebCommand> cmds = server.take_commands();
   ASSERT_EQ(cmds.size(), 1u);
   EXPECT_EQ(cmds[0].id, 1u);
-  EXPECT_EQ(cmds[0].visit.robot, 3);
-  EXPECT_EQ(cmds[0].visit.x, 1.5);
-  EXPECT_EQ(cmds[0].visit.y, -2.0);
+  EXPECT_EQ(cmds[0].command.robot, 3);
+  EXPECT_EQ(cmds[0].command.x, 1.5);
+  EXPECT_EQ(cmds[0].command.y, -2.0);
 }
 
 TEST(WebServer, OversizedInputIsRefusedAndCountedAndTheServerGoesOn) {
@@ -186,7 +186,7 @@ TEST(WebServer, TheSocketNeedsTheTokenAndGetsTheSnapshotsAsTheyArePublished) {
     buffer.consume(buffer.size());
   } while (reply.find("reply") == std::string::npos);
   EXPECT_EQ(reply, R"({"id":1,"ok":true,"status":"queued","type":"reply"})");
-  EXPECT_EQ(server.take_commands().at(0).visit.robot, 7);
+  EXPECT_EQ(server.take_commands().at(0).command.robot, 7);
   // A message over the cap closes the socket, counted.
   beast::error_code ec;
   ws.write(asio::buffer(std::string(kMaxWebCommandBytes + 10, 'x')), ec);

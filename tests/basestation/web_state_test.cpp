@@ -1,11 +1,13 @@
 // The web view's JSON: robots from the fleet with the fusion's pose and 3σ ellipse, the
-// status panel fields, a bounded trail; the command results kept; the map's geometry and
-// PNG (base64) as mapper::render_png makes it.
+// status panel fields with the RT loop's, a bounded trail, the task with its region and the
+// latest bid; the exploration's state; the command results kept; the map's geometry, PNG
+// (base64) as mapper::render_png makes it, and frontier cells.
 #include "basestation/web/web_state.hpp"
 
 #include <gtest/gtest.h>
 #include <png.h>
 
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -44,8 +46,14 @@ TEST(WebState, RobotsCarryTheFleetTheStatusAndTheFusionsEstimate) {
   st.battery_soc = 0.5f;
   st.stop_reason = 1;  // the e-stop
   st.devices.push_back({"lms", "scanning", 2});
+  st.loop_period_mean_us = 10000.25f;
+  st.loop_period_p99_us = 10090.5f;
+  st.loop_jitter_max_us = 210.0f;
+  st.loop_cycles = 4200;
+  st.deadline_misses = 3;
+  st.queue_overflows = 1;
   web.on_status(1, st);
-  web.on_command_result(4, {1, 0.5, -0.25}, "accepted");
+  web.on_command_result(4, {WebCommandKind::kVisit, 1, 0.5, -0.25, false}, "accepted");
   const json j = json::parse(web.state_json(3 * kNanosPerSecond / 2, fleet, &fusion, nullptr));
   EXPECT_EQ(j["type"], "state");
   ASSERT_EQ(j["robots"].size(), 2u);
@@ -60,6 +68,8 @@ TEST(WebState, RobotsCarryTheFleetTheStatusAndTheFusionsEstimate) {
   EXPECT_EQ(r1["estop"], true);
   EXPECT_EQ(r1["devices"][0]["name"], "lms");
   EXPECT_EQ(r1["devices"][0]["state"], 2);
+  EXPECT_EQ(r1["rt"], json::parse(R"({"period_mean_us":10000.25,"period_p99_us":10090.5,"jitter_max_us":210.0,)"
+                                   R"("cycles":4200,"misses":3,"overflows":1})"));
   EXPECT_EQ(r1["pose"]["x"], 1.0);
   EXPECT_EQ(r1["pose"]["y"], 2.0);
   EXPECT_NEAR(r1["ellipse"]["major"].get<double>(), 0.6, 0.002);  // 3 x 0.2 m, along y
@@ -69,18 +79,96 @@ TEST(WebState, RobotsCarryTheFleetTheStatusAndTheFusionsEstimate) {
   const json& r2 = j["robots"][1];  // in the fleet, not in the fusion: no pose, no panel fields
   EXPECT_FALSE(r2.contains("pose"));
   EXPECT_FALSE(r2.contains("battery_v"));
-  EXPECT_EQ(j["commands"], json::parse(R"([{"id":4,"robot":1,"x":0.5,"y":-0.25,"result":"accepted"}])"));
+  EXPECT_EQ(j["commands"], json::parse(R"([{"id":4,"cmd":"visit","robot":1,"x":0.5,"y":-0.25,"result":"accepted"}])"));
   EXPECT_EQ(j["explore"], false);
+  EXPECT_TRUE(j["exploration"].is_null());
+}
+
+// The exploration's part: each robot's task with its information-gain region, its latest
+// bid (items and unreachable clusters), and whether the operator stopped exploration.
+TEST(WebState, TasksCarryTheirRegionAndRobotsTheirLatestBid) {
+  Fleet fleet(3 * kNanosPerSecond, nullptr, {});
+  fleet.on_status(1, "rover", "running", 1, kNanosPerSecond);
+  explore::AllocatorConfig cfg;
+  cfg.bid_wait = kNanosPerSecond / 2;
+  cfg.cells_per_metre = 1.0;
+  cfg.min_gain = 20;
+  explore::TaskAllocator alloc(cfg);
+  msg::Bid bid;
+  bid.robot_id = 1;
+  bid.seq = 5;
+  bid.n_items = 2;
+  bid.items[0] = {3.0, 4.0, 120.0, 2.5, 2.0, 3.0, 4.0, 5.0};
+  bid.items[1] = {-1.0, 0.5, 40.0, 6.0, -2.0, 0.0, 0.0, 1.0};
+  bid.n_unreachable = 1;
+  bid.unreachable[0] = {7.0, 7.5, 6.5, 7.0, 7.5, 8.0, 12, msg::UnreachableKind::kTooNarrow};
+  ASSERT_TRUE(alloc.on_bid(bid, 0));
+  std::vector<msg::TaskAssignment> out;
+  alloc.tick(kNanosPerSecond, &out);
+  ASSERT_EQ(out.size(), 1u);
+  WebState web;
+  json j = json::parse(web.state_json(kNanosPerSecond, fleet, nullptr, &alloc));
+  const json& r1 = j["robots"][0];
+  EXPECT_EQ(r1["task"]["kind"], "explore");
+  EXPECT_EQ(r1["task"]["x"], 3.0);
+  EXPECT_EQ(r1["task"]["gain"], 120.0);
+  EXPECT_EQ(r1["task"]["igr"], json::parse("[2.0, 3.0, 4.0, 5.0]"));
+  EXPECT_EQ(r1["bid"]["seq"], 5);
+  ASSERT_EQ(r1["bid"]["items"].size(), 2u);
+  EXPECT_EQ(r1["bid"]["items"][1], json::parse(R"({"x":-1.0,"y":0.5,"gain":40.0,"cost":6.0,"igr":[-2.0,0.0,0.0,1.0]})"));
+  EXPECT_EQ(r1["bid"]["unreachable"][0], json::parse(R"({"x":7.0,"y":7.5,"rect":[6.5,7.0,7.5,8.0],"cells":12})"));
+  EXPECT_EQ(j["explore"], true);
+  EXPECT_EQ(j["exploration"]["paused"], false);
+  EXPECT_EQ(j["exploration"]["rounds"], 1);
+  alloc.set_paused(true, 2 * kNanosPerSecond);
+  out.clear();
+  alloc.tick(2 * kNanosPerSecond, &out);
+  j = json::parse(web.state_json(2 * kNanosPerSecond, fleet, nullptr, &alloc));
+  EXPECT_EQ(j["exploration"]["paused"], true);
+  EXPECT_EQ(j["robots"][0]["task"]["kind"], "idle");
+  EXPECT_FALSE(j["robots"][0]["task"].contains("igr"));
+}
+
+// A reset's result arrives twice: "under way" when asked, its outcome when the exchange ends.
+TEST(WebState, ALaterResultForTheSameCommandReplacesTheFirst) {
+  Fleet fleet(kNanosPerSecond, nullptr, {});
+  WebState web;
+  const WebCommand reset{WebCommandKind::kReset, 2, 0, 0, false};
+  web.on_command_result(7, reset, "reset under way");
+  web.on_command_result(8, {WebCommandKind::kExplore, 0, 0, 0, true}, "exploration running");
+  web.on_command_result(7, reset, "done: reset accepted");
+  const json j = json::parse(web.state_json(0, fleet, nullptr, nullptr));
+  ASSERT_EQ(j["commands"].size(), 2u);
+  EXPECT_EQ(j["commands"][0], json::parse(R"({"id":7,"cmd":"reset","robot":2,"result":"done: reset accepted"})"));
+  EXPECT_EQ(j["commands"][1], json::parse(R"({"id":8,"cmd":"explore","run":true,"result":"exploration running"})"));
 }
 
 TEST(WebState, TheCommandHistoryIsBounded) {
   Fleet fleet(kNanosPerSecond, nullptr, {});
   WebState web;
-  for (std::uint64_t i = 1; i <= 25; ++i) web.on_command_result(i, {1, 0, 0}, "refused: x");
+  for (std::uint64_t i = 1; i <= 25; ++i) web.on_command_result(i, {WebCommandKind::kVisit, 1, 0, 0, false}, "refused: x");
   const json j = json::parse(web.state_json(0, fleet, nullptr, nullptr));
   ASSERT_EQ(j["commands"].size(), kWebCommandHistory);
   EXPECT_EQ(j["commands"][0]["id"], 16);  // the newest ten
   EXPECT_EQ(j["robots"], json::array());
+}
+
+// Frontier cells: clear with an unknown 4-neighbour; a clear cell among clear and obstacle
+// cells, or an unknown one, is not; the map's edge is not unknown.
+TEST(WebState, FrontierCellsAreClearCellsBesideUnknownOnes) {
+  ClassGrid g;
+  g.geometry.resolution = 1.0;
+  g.geometry.width = 4;
+  g.geometry.height = 3;
+  g.cells.assign(12, Cell::kClear);
+  g.at(3, 2) = Cell::kUnknown;   // its neighbours (2, 2) and (3, 1) are frontier
+  g.at(0, 0) = Cell::kObstacle;
+  g.at(1, 1) = Cell::kUnknown;   // (1, 0), (0, 1), (2, 1), (1, 2)
+  const json j = json::parse(WebState::map_json(g, 1));
+  std::vector<int> cells = j["frontier"].get<std::vector<int>>();
+  std::sort(cells.begin(), cells.end());
+  EXPECT_EQ(cells, (std::vector<int>{1, 4, 6, 7, 9, 10}));  // j * 4 + i
+  EXPECT_EQ(j["frontier_total"], 6);
 }
 
 TEST(WebState, Base64MatchesTheStandardVectors) {
@@ -136,6 +224,9 @@ TEST(WebState, TheMapIsAPngOfOnePixelPerCellWithItsGeometry) {
   EXPECT_EQ(px[3 + 0], 0);    // bottom-left: obstacle black
   EXPECT_EQ(px[2], 255);      // top-right: clear white
   EXPECT_EQ(px[0], 190);      // unknown grey
+  // The frontier: the clear cell (2, 1) has unknown neighbours (1, 1) and (2, 0).
+  EXPECT_EQ(j["frontier"], json::array({5}));
+  EXPECT_EQ(j["frontier_total"], 1);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
-// Cairn's live view: draws what cairn-base pushes over its WebSocket (docs/web-view.md)
-// and sends a visit request for the chosen robot where the map is clicked.
+// Cairn's live view: draws what cairn-base pushes over its WebSocket (docs/web-view.md);
+// sends a visit request for the chosen robot where the map is clicked, stops and starts the
+// exploration, and asks for a robot's e-stop reset.
 "use strict";
 
 const token = new URLSearchParams(location.search).get("token") || "";
@@ -41,6 +42,50 @@ function ellipse(x, y, e, style) {
   ctx.stroke();
 }
 
+function rectangle(r, style, dash) {
+  const a = view.worldToCanvas(r[0], r[1]), b = view.worldToCanvas(r[2], r[3]);
+  ctx.strokeStyle = style;
+  ctx.setLineDash(dash || []);
+  ctx.strokeRect(Math.min(a[0], b[0]), Math.min(a[1], b[1]), Math.abs(b[0] - a[0]), Math.abs(b[1] - a[1]));
+  ctx.setLineDash([]);
+}
+
+// The central map's frontier (clear cells beside unknown ones), the robots' latest bids
+// (circles of area proportional to the gain), their unreachable clusters and given-up spots.
+function drawExploration(s) {
+  const m = view.map, f = fit();
+  if (m.frontier) {
+    ctx.fillStyle = "rgba(255, 140, 0, 0.8)";
+    const w = Math.max(f.scale, 1);
+    for (const k of m.frontier) {
+      const i = k % m.width, j = Math.floor(k / m.width);
+      ctx.fillRect(f.ox + i * f.scale, f.oy + (m.height - 1 - j) * f.scale, w, w);
+    }
+  }
+  for (const r of s.robots) {
+    const col = colour(r.id);
+    if (r.bid) {
+      ctx.strokeStyle = col;
+      for (const it of r.bid.items) {
+        const c = view.worldToCanvas(it.x, it.y);
+        ctx.beginPath(); ctx.arc(c[0], c[1], Math.max(2, Math.sqrt(it.gain) / 2), 0, 2 * Math.PI); ctx.stroke();
+      }
+      for (const u of r.bid.unreachable) rectangle(u.rect, "#c00000");
+    }
+    if (r.task && r.task.igr) rectangle(r.task.igr, col, [6, 3]);
+  }
+  if (s.exploration) {
+    ctx.strokeStyle = "#000";
+    for (const p of s.exploration.given_up) {
+      const c = view.worldToCanvas(p[0], p[1]);
+      ctx.beginPath();
+      ctx.moveTo(c[0] - 5, c[1] - 5); ctx.lineTo(c[0] + 5, c[1] + 5);
+      ctx.moveTo(c[0] + 5, c[1] - 5); ctx.lineTo(c[0] - 5, c[1] + 5);
+      ctx.stroke();
+    }
+  }
+}
+
 function draw() {
   ctx.fillStyle = "#bebebe";
   ctx.fillRect(0, 0, canvas.width, canvas.height);
@@ -51,6 +96,7 @@ function draw() {
   const s = view.state;
   if (!s) return;
   ctx.lineWidth = 1;
+  if (document.getElementById("show-explore").checked) drawExploration(s);
   for (const l of s.landmarks) {
     const c = view.worldToCanvas(l.x, l.y);
     ctx.strokeStyle = "#e600c8";
@@ -93,10 +139,19 @@ function row(cells) {
   return tr;
 }
 
+function send(cmd) {
+  const reply = document.getElementById("reply");
+  if (!view.socket || view.socket.readyState !== WebSocket.OPEN) { reply.textContent = "no link yet"; return false; }
+  view.socket.send(JSON.stringify(cmd));
+  return true;
+}
+
 function panel() {
   const s = view.state;
   const body = document.querySelector("#robots tbody");
   body.replaceChildren();
+  const rt = document.querySelector("#rt tbody");
+  rt.replaceChildren();
   const select = document.getElementById("robot");
   for (const r of s.robots) {
     const name = document.createElement("span");
@@ -106,9 +161,19 @@ function panel() {
     const stop = document.createElement("span");
     stop.textContent = text(r.stop);
     if (r.estop) stop.className = "estop";
+    if (r.stop === "reset required") {  // latched: the operator may reset it from here
+      const b = document.createElement("button");
+      b.className = "reset"; b.textContent = "reset"; b.dataset.robot = String(r.id);
+      b.onclick = () => send({ cmd: "reset", robot: r.id });
+      stop.append(" ", b);
+    }
     const battery = r.battery_v ? `${r.battery_v.toFixed(1)} V ${Math.round(r.battery_soc * 100)}%` : "";
     const task = r.task ? `${r.task.kind} #${r.task.id}` : "";
     body.append(row([name, text(r.mode), `${r.presence} ${r.link_age_s.toFixed(1)} s`, battery, stop, task]));
+    if (r.rt) {
+      rt.append(row([`${r.id}`, `${r.rt.period_mean_us.toFixed(0)} / ${r.rt.period_p99_us.toFixed(0)}`,
+                     r.rt.jitter_max_us.toFixed(0), String(r.rt.misses), String(r.rt.overflows)]));
+    }
     if (!select.querySelector(`option[value="${r.id}"]`)) {
       const o = document.createElement("option");
       o.value = String(r.id); o.textContent = `robot ${r.id} ${text(r.name)}`;
@@ -117,7 +182,23 @@ function panel() {
   }
   const cmds = document.querySelector("#commands tbody");
   cmds.replaceChildren();
-  for (const c of s.commands) cmds.append(row([String(c.id), String(c.robot), `(${c.x.toFixed(2)}, ${c.y.toFixed(2)})`, c.result]));
+  for (const c of s.commands) {
+    const target = c.cmd === "visit" ? `(${c.x.toFixed(2)}, ${c.y.toFixed(2)})` : c.cmd === "explore" ? (c.run ? "start" : "stop") : "";
+    cmds.append(row([String(c.id), c.cmd, text(c.robot), target, c.result]));
+  }
+  const button = document.getElementById("explore");
+  const ex = document.getElementById("exploration");
+  if (s.exploration) {
+    button.hidden = false;
+    button.textContent = s.exploration.paused ? "start exploration" : "stop exploration";
+    button.dataset.run = s.exploration.paused ? "true" : "false";
+    ex.textContent = (s.exploration.paused ? "stopped by the operator" : s.exploration.explored ? "explored" : "exploring") +
+      `; ${s.exploration.rounds} round(s), ${s.exploration.given_up.length} frontier spot(s) given up` +
+      (view.map && view.map.frontier_total !== undefined ? `; ${view.map.frontier_total} frontier cell(s) on the map` : "");
+  } else {
+    button.hidden = true;
+    ex.textContent = "off: this base runs no exploration executive";
+  }
   document.getElementById("landmarks").textContent =
     `${s.landmarks_total} landmark(s)` + (s.landmarks_total > s.landmarks.length ? `, ${s.landmarks.length} shown` : "");
 }
@@ -151,8 +232,10 @@ canvas.addEventListener("click", (ev) => {
   if (!robot) { reply.textContent = "choose a robot first"; return; }
   const rect = canvas.getBoundingClientRect();
   const w = view.canvasToWorld((ev.clientX - rect.left) * (canvas.width / rect.width), (ev.clientY - rect.top) * (canvas.height / rect.height));
-  if (!w || !view.socket || view.socket.readyState !== WebSocket.OPEN) { reply.textContent = "no map or no link yet"; return; }
-  view.socket.send(JSON.stringify({ cmd: "visit", robot, x: w[0], y: w[1] }));
+  if (!w) { reply.textContent = "no map yet"; return; }
+  send({ cmd: "visit", robot, x: w[0], y: w[1] });
 });
+document.getElementById("explore").addEventListener("click", (ev) => send({ cmd: "explore", run: ev.target.dataset.run === "true" }));
+document.getElementById("show-explore").addEventListener("change", draw);
 
 connect();
