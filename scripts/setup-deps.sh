@@ -2,11 +2,11 @@
 # Installs the Debian packages Cairn needs, by name, skipping those already
 # installed. Idempotent; safe to run again. Needs root (uses sudo if not root).
 #
-#   scripts/setup-deps.sh            build + test dependencies
+#   scripts/setup-deps.sh            build + test dependencies (the web view's browser
+#                                    test included: chromium, chromium-driver, python3-selenium)
 #   scripts/setup-deps.sh --peers    also the peer baselines used by benchmarks (MRPT)
 #   scripts/setup-deps.sh --vm       also what the qemu VM bench needs
 #   scripts/setup-deps.sh --cross    also the aarch64/armhf cross toolchains and target libraries
-#   scripts/setup-deps.sh --web      also chromium, node and npm (scripts/web-browser-test.sh)
 set -euo pipefail
 
 core=(
@@ -18,6 +18,7 @@ core=(
   googletest libgtest-dev libgmock-dev libbenchmark-dev
   libsystemd-dev dpkg-dev openssh-client openssh-server
   mount fdisk e2fsprogs xz-utils openssl
+  chromium chromium-driver python3-selenium   # web_view_browser_test (tests/web/web_view_test.py)
 )
 extra=()
 vm_kernel=0
@@ -26,10 +27,7 @@ for arg in "$@"; do
     --peers) extra+=(libmrpt-dev) ;;
     --vm) extra+=(qemu-system-x86 busybox-static cpio); vm_kernel=1 ;;
     --cross) extra+=(g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user qemu-user-static) ;;
-    # The web view's browser test (scripts/web-browser-test.sh): chromium, node and npm for
-    # puppeteer-core; Debian's npm only when no nodejs bundling its own is installed.
-    --web) extra+=(chromium nodejs); command -v npm >/dev/null || extra+=(npm) ;;
-    -h|--help) sed -n '2,10p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,9p' "$0"; exit 0 ;;
     *) echo "setup-deps: unknown option '$arg' (try --help)" >&2; exit 2 ;;
   esac
 done

@@ -1,19 +1,17 @@
 #!/usr/bin/env bash
-# The web view in a real browser (docs/web-view.md, "Tests"): Debian's chromium, headless,
-# driven by puppeteer-core (npm, pinned by tests/web/package-lock.json), against cairn-base
-# and two fake robots on a loopback DDS domain of its own. Not part of scripts/test.sh:
-# it needs npm's registry, which a fresh machine does not reach (its TLS chain is not
-# trusted there); the port to Debian's python3-selenium is the next step.
-#   scripts/web-browser-test.sh [BUILD_DIR]   (default build/ci; built if missing)
+# Just the web view's browser test (ctest web_view_browser_test, docs/web-view.md): Debian's
+# chromium, headless, driven by python3-selenium and chromium-driver, against cairn-base and
+# two fake robots on a loopback DDS domain of its own. scripts/test.sh runs it with the suite.
+#   scripts/web-browser-test.sh [BUILD_DIR]   (default build/ci, configured with the ci preset;
+#                                              builds only the two programs the test starts)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build/ci}
-scripts/setup-deps.sh --web
-[[ -x $build/basestation/cairn-base && -x $build/tests/cairn-test-room-robots ]] ||
-  cmake --build "$build" --target cairn-base cairn-test-room-robots
-export CYCLONEDDS_URI="file://$PWD/config/dds/loopback.xml"
-tests/web/npm-install.sh "$build/tests/web"
-node "$build/tests/web/web_view_test.mjs" --base "$build/basestation/cairn-base" \
-  --robots "$build/tests/cairn-test-room-robots" --config tests/web/base-web.toml \
-  --dds config/dds/loopback.xml --out "$build/tests/web/out"
+scripts/setup-deps.sh
+if [[ ! -f $build/CMakeCache.txt ]]; then
+  [[ $build == build/ci ]] || { echo "web-browser-test: $build is not a configured build directory" >&2; exit 1; }
+  cmake --preset ci
+fi
+cmake --build "$build" --target cairn-base cairn-test-room-robots
+ctest --test-dir "$build" -R '^web_view_browser_test$' --output-on-failure
 echo "web-browser-test: passed (screenshot: $build/tests/web/out/web_view.png)"
