@@ -120,7 +120,11 @@ void ExploreNode::set_running(bool run, Nanos now, const char* by) {
     return;
   }
   allocator_.set_paused(!run, now);
-  CAIRN_LOG_INFO("explore", "exploration {} by {}", run ? "started again" : "stopped: robots told to idle, visits still go", by);
+  if (run) {
+    CAIRN_LOG_INFO("explore", "exploration started again by {}", by);
+  } else {
+    CAIRN_LOG_INFO("explore", "exploration stopped by {}: robots told to idle, visits still go", by);
+  }
 }
 
 std::string ExploreNode::summary() const {

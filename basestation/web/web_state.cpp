@@ -109,6 +109,7 @@ std::string WebState::state_json(Nanos now, const Fleet& fleet, const Fusion* fu
       r["stop"] = st.stop_reason <= static_cast<std::uint8_t>(kLastStopReason) ? stop_reason_text(reason) : "unknown";
       r["stop_text"] = st.stop_text;
       r["estop"] = reason == StopReason::kEstop || reason == StopReason::kResetRequired;
+      r["reset_required"] = reason == StopReason::kResetRequired;  // latched: the page offers a reset
       r["nav_state"] = st.nav_state;
       r["devices"] = std::move(devices);
       r["rt"] = {{"period_mean_us", mm(st.loop_period_mean_us)}, {"period_p99_us", mm(st.loop_period_p99_us)},

@@ -66,6 +66,7 @@ TEST(WebState, RobotsCarryTheFleetTheStatusAndTheFusionsEstimate) {
   EXPECT_EQ(r1["battery_v"], 24.5);
   EXPECT_EQ(r1["stop"], "e-stop pressed");
   EXPECT_EQ(r1["estop"], true);
+  EXPECT_EQ(r1["reset_required"], false);  // pressed, not yet latched-and-released
   EXPECT_EQ(r1["devices"][0]["name"], "lms");
   EXPECT_EQ(r1["devices"][0]["state"], 2);
   EXPECT_EQ(r1["rt"], json::parse(R"({"period_mean_us":10000.25,"period_p99_us":10090.5,"jitter_max_us":210.0,)"

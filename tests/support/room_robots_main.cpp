@@ -1,8 +1,11 @@
 // cairn-test-room-robots: fake robots for the web view's browser test. Robots 1 and 2
 // drive circles of 1 m in a walled 8 m x 6 m room ([-4, 4] x [-3, 3] m, global frame),
-// publishing what cairn-robot publishes to the base: RobotStatus (5 Hz), exact odometry
-// (20 Hz) and 360-beam scans ray-cast against the walls (5 Hz). The walls are where the
-// test looks for them on the page's canvas. Runs until SIGINT/SIGTERM or --duration.
+// publishing what cairn-robot publishes to the base: RobotStatus (5 Hz, with RT loop
+// figures), exact odometry (20 Hz) and 360-beam scans ray-cast against the walls (5 Hz).
+// The walls are where the test looks for them on the page's canvas. Robot 1 bids for one
+// frontier (1 Hz); robot 2 starts latched ("reset required"), standing still, until a
+// SafetyReset for it arrives (as cairn-robot's bridge takes it; printed). Runs until
+// SIGINT/SIGTERM or --duration.
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
@@ -52,6 +55,11 @@ int main(int argc, char** argv) {
   dds::Writer<cairn_RobotStatus> status(pp, status_topic, dds::state_qos(1));
   dds::Writer<cairn_OdometryIncrement> odom(pp, odom_topic, dds::latched_qos(64));
   dds::Writer<cairn_LaserScan> scans(pp, scan_topic, dds::state_qos(4));
+  dds::Topic<cairn_Bid> bid_topic(pp);
+  dds::Writer<cairn_Bid> bids(pp, bid_topic, dds::state_qos(1));
+  dds::Topic<cairn_SafetyReset> reset_topic(pp);
+  dds::Reader<cairn_SafetyReset> resets(pp, reset_topic, dds::state_qos(4));
+  bool latched[kRobots] = {false, true};
   auto scan_sample = std::make_unique<cairn_LaserScan>();
 
   auto& clock = MonotonicClock::instance();
@@ -65,9 +73,25 @@ int main(int argc, char** argv) {
     clock.sleep_until(next);
     const Nanos t1 = clock.now();
     ++seq;
+    resets.take([&](const cairn_SafetyReset& m, const dds_sample_info_t&) {
+      if (m.robot_id < 1 || m.robot_id > kRobots || !latched[m.robot_id - 1]) return;
+      latched[m.robot_id - 1] = false;
+      std::printf("robot %d: reset by '%s'\n", m.robot_id, m.issued_by);
+      std::fflush(stdout);
+    });
+    if (seq % 20 == 0) {  // robot 1's bid: one frontier in the room's upper right, with its region
+      msg::Bid b;
+      b.robot_id = 1;
+      b.seq = seq / 20;
+      b.n_items = 1;
+      b.items[0] = {2.5, 1.5, 150.0, 4.0, 2.0, 1.0, 3.5, 2.5};
+      cairn_Bid bd{};
+      dds::to_dds(b, &bd);
+      bids.write(bd);
+    }
     for (int r = 0; r < kRobots; ++r) {
       const auto id = static_cast<std::uint16_t>(r + 1);
-      const Pose2 step{0.3 * 0.05, 0.0, 0.3 * 0.05};  // 0.3 m/s on a 1 m circle
+      const Pose2 step = latched[r] ? Pose2{0, 0, 0} : Pose2{0.3 * 0.05, 0.0, 0.3 * 0.05};  // 0.3 m/s on a 1 m circle
       local[r] = compose(local[r], step);
       msg::OdometryIncrement o;
       o.robot_id = id;
@@ -88,6 +112,12 @@ int main(int argc, char** argv) {
       st.stamp_ns = t1;
       dds::set_text(st.name, r == 0 ? "rover-a" : "rover-b");
       st.mode = cairn_MODE_RUNNING;
+      st.stop_reason = latched[r] ? 8 : 0;  // 8: reset required (common/stop_reason.hpp)
+      dds::set_text(st.stop_text, latched[r] ? "e-stop released; reset required" : "");
+      st.loop_period_mean_us = 10000.0f;
+      st.loop_period_p99_us = 10100.0f;
+      st.loop_jitter_max_us = 150.0f;
+      st.loop_cycles = seq * 5;
       st.local_pose.x = local[r].x;
       st.local_pose.y = local[r].y;
       st.local_pose.theta = local[r].theta;

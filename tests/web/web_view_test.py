@@ -367,6 +367,54 @@ def main():
         bad = poll(lambda: driver.execute_script("return window.cairnView.lastReply;"), 5)
         check(bool(bad) and bad.get("ok") is False and "unknown command" in str(bad.get("error")), f"an unknown command is refused: {bad}")
 
+        # The panel: robot 1's RT loop figures, as its status gives them.
+        rt = poll(lambda: (lambda t: t if "10000 / 10100" in t else None)(driver.find_element(By.ID, "rt").text), 5)
+        check(bool(rt), f"the RT loop table shows robot 1's period mean / p99: {rt!r}")
+
+        # Exploration: robot 1's bid (one frontier, region [2, 1]-[3.5, 2.5]) gets it an explore task with
+        # that region; the page draws the bid's circle and the region, and shows the stop button.
+        explore_js = """
+            const s = window.cairnView.state;
+            const r = s && s.robots.find((x) => x.id === 1);
+            return r && r.task && r.bid ? {task: r.task, bid: r.bid, exploration: s.exploration,
+                                           button: document.getElementById('explore').textContent} : null;"""
+        ex = poll(lambda: (lambda e: e if e and e["task"]["kind"] == "explore" else None)(driver.execute_script(explore_js)), 10)
+        check(bool(ex) and ex["task"].get("igr") == [2.0, 1.0, 3.5, 2.5] and abs(ex["task"]["x"] - 2.5) < 1e-9
+              and len(ex["bid"]["items"]) == 1 and ex["button"] == "stop exploration",
+              f"robot 1's bid gave it an explore task with its region, and the page offers to stop: {ex}")
+        # The region's dashed outline in robot 1's red crosses the map at its left edge's middle.
+        igr_px = world_pixel(m, 2.0, 1.75)
+        drawn = poll(lambda: any(red({"rgb": c}) for c in driver.execute_script(
+            "const d = document.getElementById('map').getContext('2d').getImageData(arguments[0] - 1, arguments[1] - 6, 3, 13).data;"
+            "const out = []; for (let k = 0; k < d.length; k += 4) out.push([d[k], d[k + 1], d[k + 2]]); return out;",
+            round(igr_px[0]), round(igr_px[1]))), 5)
+        check(bool(drawn), f"the task's region drawn in red at its left edge {tuple(round(v) for v in igr_px)}")
+        driver.find_element(By.ID, "explore").click()
+        stopped = poll(lambda: (lambda e: e if e and e["exploration"]["paused"] and e["task"]["kind"] == "idle"
+                                and e["button"] == "start exploration" else None)(driver.execute_script(explore_js)), 5)
+        check(bool(stopped), f"'stop exploration': the base stops it, robot 1 told idle: {stopped and stopped['task']}")
+        check(bool(poll(lambda: "exploration stopped by the web view" in read(base_log), 5)), "the base logged the stop")
+        driver.find_element(By.ID, "explore").click()
+        resumed = poll(lambda: (lambda e: e if e and not e["exploration"]["paused"] and e["task"]["kind"] == "explore"
+                                else None)(driver.execute_script(explore_js)), 5)
+        check(bool(resumed), f"'start exploration': robot 1 explores again: {resumed and resumed['task']}")
+
+        # Robot 2 starts latched: its row offers a reset; the click runs the base's reset exchange
+        # (SafetyReset, confirmed by its status) and the robot drives again.
+        button = poll(lambda: driver.find_elements(By.CSS_SELECTOR, 'button.reset[data-robot="2"]'), 5)
+        check(bool(button) and not driver.find_elements(By.CSS_SELECTOR, 'button.reset[data-robot="1"]'),
+              "robot 2 (latched) offers a reset, robot 1 (running) does not")
+        if button:
+            button[0].click()
+        reset = poll(lambda: driver.execute_script("""
+            const s = window.cairnView.state;
+            const c = s.commands.find((x) => x.cmd === "reset" && x.robot === 2);
+            const r = s.robots.find((x) => x.id === 2);
+            return c && c.result.startsWith("done") && !r.reset_required ? c : null;"""), 10)
+        check(bool(reset), f"the reset confirmed by robot 2's status: {reset}")
+        check(bool(poll(lambda: "robot 2: reset by 'web view'" in read(os.path.join(out, "robots.log")), 5)),
+              "robot 2 received the base's SafetyReset, from the web view")
+
         # Click: robot 1 chosen, the map clicked at a clear point; the base assigns the visit.
         visits_before = read(base_log).count("asked by web view")
         if not poll(lambda: driver.find_elements(By.CSS_SELECTOR, '#robot option[value="1"]'), 5):

@@ -161,7 +161,7 @@ function panel() {
     const stop = document.createElement("span");
     stop.textContent = text(r.stop);
     if (r.estop) stop.className = "estop";
-    if (r.stop === "reset required") {  // latched: the operator may reset it from here
+    if (r.reset_required) {  // latched: the operator may reset it from here
       const b = document.createElement("button");
       b.className = "reset"; b.textContent = "reset"; b.dataset.robot = String(r.id);
       b.onclick = () => send({ cmd: "reset", robot: r.id });
