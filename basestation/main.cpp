@@ -22,6 +22,8 @@
 #include "basestation/web/web_server.hpp"
 #include "basestation/web/web_state.hpp"
 #include "cairn.h"
+#include "common/dds/convert.hpp"
+#include "common/dds/qos.hpp"
 #include "common/dds/topics.hpp"
 #include "common/log.hpp"
 #include "common/program.hpp"
@@ -123,7 +125,8 @@ std::string web_visit(const base::WebCommand& v, base::ExploreNode* explore, con
 // A browser's command, in this thread: a visit, the exploration stopped or started, or an
 // e-stop reset started (its result comes later, from the reset node's poll).
 std::string web_command(std::uint64_t id, const base::WebCommand& c, base::ExploreNode* explore, const base::FusionNode* fusion,
-                        const base::GridMapNode* map, base::EstopResetNode& resets, Nanos now) {
+                        const base::GridMapNode* map, base::EstopResetNode& resets, dds::Writer<cairn_SafetyStop>& stop,
+                        std::uint32_t* stop_seq, Nanos now) {
   switch (c.kind) {
     case base::WebCommandKind::kVisit: return web_visit(c, explore, fusion, map, now);
     case base::WebCommandKind::kExplore:
@@ -138,6 +141,21 @@ std::string web_command(std::uint64_t id, const base::WebCommand& c, base::Explo
       if (!resets.start(id, req, now, &why)) return "refused: " + why;
       CAIRN_LOG_INFO("base", "e-stop reset for robot {} asked by the web view", c.robot);
       return std::string(kResetUnderWay);
+    }
+    case base::WebCommandKind::kEstopAll: {
+      // One sample for every robot (id 0): a robot the base has never heard of stops too.
+      msg::SafetyStop m;
+      m.robot_id = 0;
+      m.seq = ++*stop_seq;
+      m.issued = now;
+      std::copy(kWebIssuer.begin(), kWebIssuer.end(), m.issued_by.begin());
+      cairn_SafetyStop d{};
+      dds::to_dds(m, &d);
+      const dds_return_t readers = dds_get_matched_subscriptions(stop.handle(), nullptr, 0);
+      if (!stop.write(d)) return std::string("failed: ") + dds_strretcode(stop.last_error());
+      CAIRN_LOG_WARN("base", "remote e-stop of every robot #{} asked by the web view ({} robot reader(s) matched)", m.seq, readers);
+      return "e-stop sent to every robot (" + std::to_string(readers < 0 ? 0 : readers) +
+             " robot reader(s) matched): each latches until a reset";
     }
   }
   return "refused: unknown command";
@@ -215,7 +233,14 @@ int run(const std::string& config_path, double duration_s) {
   }
   Nanos next_web_state = start, next_web_map = start;
   std::optional<base::EstopResetNode> resets;  // the web view's e-stop resets, run without blocking this loop
-  if (web) resets.emplace(pp);
+  std::optional<dds::Topic<cairn_SafetyStop>> stop_topic;
+  std::optional<dds::Writer<cairn_SafetyStop>> stop_writer;  // the web view's e-stop of every robot
+  std::uint32_t stop_seq = 0;
+  if (web) {
+    resets.emplace(pp);
+    stop_topic.emplace(pp);
+    stop_writer.emplace(pp, *stop_topic, dds::state_qos(4));  // volatile, as the robots read it
+  }
   std::map<std::uint64_t, base::WebCommand> reset_commands;  // by command id, while under way
   std::uint64_t web_map_version = 0;
 
@@ -255,7 +280,7 @@ int run(const std::string& config_path, double duration_s) {
     }
     if (web) {
       for (const base::QueuedWebCommand& c : web->take_commands()) {
-        std::string result = web_command(c.id, c.command, explore.get(), fusion.get(), map.get(), *resets, now);
+        std::string result = web_command(c.id, c.command, explore.get(), fusion.get(), map.get(), *resets, *stop_writer, &stop_seq, now);
         if (result == kResetUnderWay) reset_commands.emplace(c.id, c.command);
         web_state.on_command_result(c.id, c.command, std::move(result));
       }

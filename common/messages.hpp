@@ -178,6 +178,14 @@ struct SafetyReset {
   std::array<char, 32> issued_by{};  // terminated
 };
 
+/// An operator's remote e-stop (robot_id 0: every robot); the robot latches until a reset.
+struct SafetyStop {
+  std::uint16_t robot_id = 0;
+  std::uint32_t seq = 0;
+  Nanos issued = 0;
+  std::array<char, 32> issued_by{};  // terminated
+};
+
 /// An operator's request that one robot visit a place (tool or web view -> base).
 struct VisitRequest {
   std::uint16_t robot_id = 0;
@@ -196,6 +204,7 @@ struct Landmark {
 static_assert(std::is_trivially_copyable_v<OdometryIncrement> && std::is_trivially_copyable_v<LaserScan> &&
               std::is_trivially_copyable_v<FeatureObservations> && std::is_trivially_copyable_v<PoseCorrection> &&
               std::is_trivially_copyable_v<TaskAssignment> && std::is_trivially_copyable_v<SafetyReset> &&
+              std::is_trivially_copyable_v<SafetyStop> &&
               std::is_trivially_copyable_v<Landmark> && std::is_trivially_copyable_v<Bid> &&
               std::is_trivially_copyable_v<VisitRequest>);
 

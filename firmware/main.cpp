@@ -125,6 +125,7 @@ int run(const std::string& config_path, int id_override, const std::string& name
   std::uint32_t local_resets = g_local_resets.load();
   while (!shutdown_requested() && (end == 0 || clock.now() < end)) {
     const Nanos now = clock.now();
+    bridge.take_stops(exec.get());   // the base's SafetyStop (first: a reset in the same tick is refused)
     bridge.take_resets(exec.get());  // the base's SafetyReset
     bridge.take_map_tiles();         // the base's global map, kept for the bids
     if (const std::uint32_t r = g_local_resets.load(); r != local_resets) {

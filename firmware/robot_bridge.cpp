@@ -30,6 +30,7 @@ RobotBridge::RobotBridge(const dds::Participant& pp, const RobotConfig& cfg)
       corr_topic_(pp),
       task_topic_(pp),
       reset_topic_(pp),
+      stop_topic_(pp),
       tile_topic_(pp),
       bid_topic_(pp),
       status_writer_(pp, status_topic_, [&] {
@@ -43,6 +44,7 @@ RobotBridge::RobotBridge(const dds::Participant& pp, const RobotConfig& cfg)
       corr_reader_(pp, corr_topic_, dds::latched_qos()),
       task_reader_(pp, task_topic_, dds::latched_qos()),
       reset_reader_(pp, reset_topic_, dds::state_qos(4)),  // volatile: never an old reset
+      stop_reader_(pp, stop_topic_, dds::state_qos(4)),    // volatile: never an old stop
       tile_reader_(pp, tile_topic_, dds::latched_qos()),  // as the base writes them: a late robot gets all
       bid_writer_(pp, bid_topic_, dds::state_qos(1)),  // the latest bid is what counts
       global_map_(cfg.global_map) {
@@ -138,6 +140,21 @@ std::size_t RobotBridge::take_resets(Executive* exec) {
     ++counters_.resets;
     CAIRN_LOG_INFO("bridge", "e-stop reset #{} requested over DDS by '{}'", m.seq, std::string_view(m.issued_by.data()));
     if (exec) exec->request_reset();
+  });
+  return n;
+}
+
+std::size_t RobotBridge::take_stops(Executive* exec) {
+  std::size_t n = 0;
+  stop_reader_.take([&](const cairn_SafetyStop& s, const dds_sample_info_t&) {
+    msg::SafetyStop m;
+    dds::from_dds(s, &m);
+    if (m.robot_id != cfg_.id && m.robot_id != 0) return;
+    ++n;
+    ++counters_.remote_stops;
+    CAIRN_LOG_WARN("bridge", "remote e-stop #{} ({}) by '{}': latched until a reset", m.seq,
+                   m.robot_id == 0 ? "every robot" : "this robot", std::string_view(m.issued_by.data()));
+    if (exec) exec->request_remote_stop();
   });
   return n;
 }

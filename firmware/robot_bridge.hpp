@@ -24,6 +24,7 @@ struct BridgeCounters {
   std::uint64_t odometry = 0, lasers = 0, features = 0, statuses = 0, corrections = 0, tasks = 0, write_failures = 0;
   std::uint64_t invalid_inputs = 0;  // samples from the base that had to be clamped
   std::uint64_t resets = 0;          // SafetyReset samples for this robot
+  std::uint64_t remote_stops = 0;    // SafetyStop samples for this robot or for every robot (id 0)
   std::uint64_t bids = 0;
 };
 
@@ -52,6 +53,9 @@ class RobotBridge {
   /// Takes this robot's SafetyReset samples; each becomes one exec->request_reset()
   /// (exec may be null: taken and dropped). Returns how many arrived.
   std::size_t take_resets(Executive* exec);
+  /// Takes the base's SafetyStop samples for this robot or for every robot (id 0); each
+  /// becomes one exec->request_remote_stop() (exec may be null). Returns how many arrived.
+  std::size_t take_stops(Executive* exec);
   /// Takes the base's MapTile samples (the global map, robot_id 0) into global_map().
   /// Returns how many were stored.
   std::size_t take_map_tiles();
@@ -77,6 +81,7 @@ class RobotBridge {
   dds::Topic<cairn_PoseCorrection> corr_topic_;
   dds::Topic<cairn_TaskAssignment> task_topic_;
   dds::Topic<cairn_SafetyReset> reset_topic_;
+  dds::Topic<cairn_SafetyStop> stop_topic_;
   dds::Topic<cairn_MapTile> tile_topic_;
   dds::Topic<cairn_Bid> bid_topic_;
   dds::Writer<cairn_RobotStatus> status_writer_;
@@ -86,6 +91,7 @@ class RobotBridge {
   dds::Reader<cairn_PoseCorrection> corr_reader_;
   dds::Reader<cairn_TaskAssignment> task_reader_;
   dds::Reader<cairn_SafetyReset> reset_reader_;
+  dds::Reader<cairn_SafetyStop> stop_reader_;
   dds::Reader<cairn_MapTile> tile_reader_;
   dds::Writer<cairn_Bid> bid_writer_;
   GlobalMap global_map_;

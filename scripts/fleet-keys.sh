@@ -37,8 +37,8 @@ command -v openssl >/dev/null || die "openssl is needed (apt-get install openssl
 
 # The topics by role (common/dds/topics.hpp is the list's source; a test checks they agree).
 robot_publishes="cairn_robot_status cairn_odometry cairn_laser_scan cairn_features cairn_bid"
-robot_reads="cairn_task cairn_pose_correction cairn_safety_reset cairn_map_tile cairn_feature_map"
-base_publishes="cairn_task cairn_pose_correction cairn_safety_reset cairn_map_tile cairn_feature_map cairn_visit_request"
+robot_reads="cairn_task cairn_pose_correction cairn_safety_reset cairn_safety_stop cairn_map_tile cairn_feature_map"
+base_publishes="cairn_task cairn_pose_correction cairn_safety_reset cairn_safety_stop cairn_map_tile cairn_feature_map cairn_visit_request"
 bench_topics="bench_ping bench_pong bench_data"  # tests/bench/dds_bench.cpp
 
 org="Cairn fleet"

@@ -33,6 +33,7 @@ const char* web_command_name(WebCommandKind k) {
     case WebCommandKind::kVisit: return "visit";
     case WebCommandKind::kExplore: return "explore";
     case WebCommandKind::kReset: return "reset";
+    case WebCommandKind::kEstopAll: return "estop_all";
   }
   return "?";
 }
@@ -59,8 +60,10 @@ WebCommandParse parse_web_command(std::string_view text) {
   } else if (name == "reset") {
     c.kind = WebCommandKind::kReset;
     if (!robot_id(j, &c.robot)) return fail("reset: \"robot\" must be an integer 1..65535");
+  } else if (name == "estop_all") {
+    c.kind = WebCommandKind::kEstopAll;
   } else {
-    return fail("unknown command (known: visit, explore, reset)");
+    return fail("unknown command (known: visit, explore, reset, estop_all)");
   }
   return {c, ""};
 }

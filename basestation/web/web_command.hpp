@@ -4,6 +4,7 @@
 //   {"cmd": "visit", "robot": 1, "x": 2.5, "y": -1.0}   send robot 1 there (ExploreNode::request_visit)
 //   {"cmd": "explore", "run": false}                     stop exploration (true: start it again)
 //   {"cmd": "reset", "robot": 1}                         an e-stop reset for robot 1 (SafetyReset)
+//   {"cmd": "estop_all"}                                 a remote e-stop for every robot (SafetyStop, id 0)
 #pragma once
 
 #include <cstdint>
@@ -16,7 +17,7 @@ namespace cairn::base {
 /// Longer commands are refused before parsing (the server also caps messages and bodies).
 inline constexpr std::size_t kMaxWebCommandBytes = 1024;
 
-enum class WebCommandKind { kVisit, kExplore, kReset };
+enum class WebCommandKind { kVisit, kExplore, kReset, kEstopAll };
 const char* web_command_name(WebCommandKind k);
 
 struct WebCommand {

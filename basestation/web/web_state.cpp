@@ -160,7 +160,7 @@ std::string WebState::state_json(Nanos now, const Fleet& fleet, const Fusion* fu
   json commands = json::array();
   for (const Result& res : results_) {
     json cmd{{"id", res.id}, {"cmd", web_command_name(res.command.kind)}, {"result", res.result}};
-    if (res.command.kind != WebCommandKind::kExplore) cmd["robot"] = res.command.robot;
+    if (res.command.kind == WebCommandKind::kVisit || res.command.kind == WebCommandKind::kReset) cmd["robot"] = res.command.robot;
     if (res.command.kind == WebCommandKind::kVisit) {
       cmd["x"] = mm(res.command.x);
       cmd["y"] = mm(res.command.y);

@@ -192,6 +192,13 @@ void to_dds(const msg::SafetyReset& m, cairn_SafetyReset* out) {
   copy_text(m.issued_by.data(), m.issued_by.size(), out->issued_by, sizeof out->issued_by);
 }
 
+void to_dds(const msg::SafetyStop& m, cairn_SafetyStop* out) {
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->issued_ns = m.issued;
+  copy_text(m.issued_by.data(), m.issued_by.size(), out->issued_by, sizeof out->issued_by);
+}
+
 void to_dds(const msg::VisitRequest& m, cairn_VisitRequest* out) {
   out->robot_id = m.robot_id;
   out->seq = m.seq;
@@ -202,6 +209,14 @@ void to_dds(const msg::VisitRequest& m, cairn_VisitRequest* out) {
 }
 
 bool from_dds(const cairn_SafetyReset& m, msg::SafetyReset* out) {
+  out->robot_id = m.robot_id;
+  out->seq = m.seq;
+  out->issued = m.issued_ns;
+  copy_text(m.issued_by, sizeof m.issued_by, out->issued_by.data(), out->issued_by.size());
+  return true;
+}
+
+bool from_dds(const cairn_SafetyStop& m, msg::SafetyStop* out) {
   out->robot_id = m.robot_id;
   out->seq = m.seq;
   out->issued = m.issued_ns;

@@ -19,6 +19,7 @@ void to_dds(const msg::FeatureObservations& m, cairn_FeatureObservations* out);
 void to_dds(const msg::PoseCorrection& m, cairn_PoseCorrection* out);
 void to_dds(const msg::TaskAssignment& m, cairn_TaskAssignment* out);
 void to_dds(const msg::SafetyReset& m, cairn_SafetyReset* out);
+void to_dds(const msg::SafetyStop& m, cairn_SafetyStop* out);
 void to_dds(const msg::Bid& m, cairn_Bid* out);
 void to_dds(const msg::VisitRequest& m, cairn_VisitRequest* out);
 
@@ -29,6 +30,7 @@ bool from_dds(const cairn_FeatureObservations& m, msg::FeatureObservations* out)
 bool from_dds(const cairn_PoseCorrection& m, msg::PoseCorrection* out);
 bool from_dds(const cairn_TaskAssignment& m, msg::TaskAssignment* out);
 bool from_dds(const cairn_SafetyReset& m, msg::SafetyReset* out);
+bool from_dds(const cairn_SafetyStop& m, msg::SafetyStop* out);
 bool from_dds(const cairn_Bid& m, msg::Bid* out);
 bool from_dds(const cairn_VisitRequest& m, msg::VisitRequest* out);
 

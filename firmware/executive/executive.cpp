@@ -63,6 +63,12 @@ void Executive::stop() {
 
 void Executive::set_velocity(double v, double w, Nanos now) { velocity_.write({v, w, now}); }
 
+void Executive::request_remote_stop() {
+  master_->request_estop();  // torque off now: no RT hop
+  motor_power_want_.store(false, std::memory_order_release);
+  remote_stops_.fetch_add(1, std::memory_order_acq_rel);
+}
+
 RtSnapshot Executive::rt_snapshot() {
   RtSnapshot s;
   rt_box_.read(&s);
@@ -329,6 +335,9 @@ void Executive::control_cycle(Nanos now, double dt) {
   in.command_stamp = cmd.stamp;
   in.reset = resets != resets_seen_;
   resets_seen_ = resets;
+  const std::uint32_t remote = remote_stops_.load(std::memory_order_acquire);
+  in.remote_stop = remote != remote_stops_seen_;
+  remote_stops_seen_ = remote;
   wheel_cmd_.write(core_.control(in, dt));
   // The latch: set, the drives are disabled and motor power goes off (a press already did
   // both from the power thread; a lost input or a stalled CAN thread does it here). Only

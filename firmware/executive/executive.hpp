@@ -96,6 +96,10 @@ class Executive {
   /// RT loop's next cycle accepts it if the e-stop reads released, the power board answers
   /// and the CAN thread cycles; otherwise it is refused (counted) and forgotten.
   void request_reset() { reset_requests_.fetch_add(1, std::memory_order_acq_rel); }
+  /// An operator's remote e-stop (the base's SafetyStop), from any thread: torque off at
+  /// once (the drive master's lock-free request), motor power off, and the RT loop's next
+  /// cycle latches (cause "remote e-stop") until a reset.
+  void request_remote_stop();
   bool pop_odometry(msg::OdometryIncrement* out) { return odometry_q_.pop(out); }
   bool pop_laser(msg::LaserScan* out) { return laser_q_.pop(out); }
   bool pop_features(msg::FeatureObservations* out) { return feature_q_.pop(out); }
@@ -155,12 +159,13 @@ class Executive {
   std::atomic<bool> motor_power_want_{true};      // RT -> power thread (off while latched)
   std::atomic<std::uint32_t> reset_requests_{0};  // any thread -> RT (a count: edges are not lost)
   std::atomic<std::uint32_t> estop_presses_{0};   // power thread -> RT
+  std::atomic<std::uint32_t> remote_stops_{0};    // any thread -> RT (a count: a stop is never lost)
   std::atomic<std::uint64_t> publish_drops_{0};
   // RT-thread state (touched only by the RT thread after start).
   RobotCore core_;
   std::unique_ptr<lms::LmsScan> scan_work_;
   bool was_latched_ = false;
-  std::uint32_t resets_seen_ = 0, presses_seen_ = 0;
+  std::uint32_t resets_seen_ = 0, presses_seen_ = 0, remote_stops_seen_ = 0;
   RtSnapshot snap_;
   std::thread threads_[5];
 };

@@ -45,6 +45,7 @@ canopen::WheelCommand RobotCore::control(const ControlInputs& c, double dt) {
   in.last_feedback = last_feedback_;
   in.last_can_pass = last_can_pass_;
   in.reset = c.reset;
+  in.remote_stop = c.remote_stop;
   in.v = c.v;
   in.w = c.w;
   // The last scan's returns, moved by the odometry since (about 27 ms at most), guard both

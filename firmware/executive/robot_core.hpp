@@ -33,6 +33,7 @@ struct ControlInputs {
   double v = 0, w = 0;                    // requested velocity
   Nanos command_stamp = -1;               // when it was requested
   bool reset = false;                     // an e-stop reset was requested since the last cycle
+  bool remote_stop = false;               // a remote e-stop (SafetyStop) arrived since the last cycle
 };
 
 class RobotOutputs {

@@ -11,6 +11,7 @@ const char* latch_cause_text(LatchCause c) {
     case LatchCause::kEstop: return "e-stop pressed";
     case LatchCause::kEstopInputLost: return "e-stop input lost";
     case LatchCause::kCanStalled: return "CAN thread stalled";
+    case LatchCause::kRemoteStop: return "remote e-stop";
   }
   return "unknown";
 }
@@ -35,9 +36,10 @@ StopReason SafetySupervisor::evaluate(const SafetyInputs& in, double dt, double*
   if (estop_pressed) latch(LatchCause::kEstop);
   if (power_stale && in.last_power >= 0) latch(LatchCause::kEstopInputLost);  // heard once, then lost
   if (can_stalled) latch(LatchCause::kCanStalled);
+  if (in.remote_stop) latch(LatchCause::kRemoteStop);
   reset_accepted_ = false;
   if (in.reset && latched_) {
-    if (!power_stale && !estop_pressed && !can_stalled) {
+    if (!power_stale && !estop_pressed && !can_stalled && !in.remote_stop) {
       latched_ = false;
       cause_ = LatchCause::kNone;
       reset_accepted_ = true;

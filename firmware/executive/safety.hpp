@@ -4,8 +4,9 @@
 // devices): time and inputs arrive with every call, so it is tested on simulated time.
 //
 // The e-stop latches (EN ISO 13850): a pressed e-stop, a lost e-stop input (no good read
-// of the power board within power_timeout, once it has answered) or a stalled CAN thread
-// (its zero command can no longer reach the drives) sets the latch; it stays set after
+// of the power board within power_timeout, once it has answered), a stalled CAN thread
+// (its zero command can no longer reach the drives) or an operator's remote e-stop (the
+// base's SafetyStop, a momentary press from afar) sets the latch; it stays set after
 // the cause is gone, with the drives disabled and motor power off, until an explicit
 // reset (a DDS SafetyReset from the base, SIGUSR1 to cairn-robot, or the board's reset
 // input). A reset is accepted only when the e-stop reads released, the input is fresh and
@@ -32,7 +33,7 @@ using cairn::StopReason;
 using cairn::stop_reason_text;
 
 /// Why the latch is set (the first cause since the last reset).
-enum class LatchCause : std::uint8_t { kNone = 0, kEstop = 1, kEstopInputLost = 2, kCanStalled = 3 };
+enum class LatchCause : std::uint8_t { kNone = 0, kEstop = 1, kEstopInputLost = 2, kCanStalled = 3, kRemoteStop = 4 };
 const char* latch_cause_text(LatchCause c);
 
 struct SafetyLimits {
@@ -59,6 +60,7 @@ struct SafetyInputs {
   Nanos last_feedback = -1; // the oldest of the drives' newest TPDO arrivals
   Nanos last_can_pass = -1; // the CAN thread's last pass (-1: not started yet)
   bool reset = false;       // a reset was requested since the last cycle
+  bool remote_stop = false; // a remote e-stop arrived since the last cycle (a reset in the same cycle is refused)
   double v = 0, w = 0;      // requested
   // The protective field's limits for the requested arc (protective_field.hpp): forward
   // speed it can stop from (0: blocked) and the reverse cap.

@@ -31,6 +31,9 @@ TEST(WebCommand, ExploreStartStopAndAResetAreReadExactly) {
   EXPECT_EQ(reset.command->kind, WebCommandKind::kReset);
   EXPECT_EQ(reset.command->robot, 7);
   EXPECT_STREQ(web_command_name(reset.command->kind), "reset");
+  const WebCommandParse all = parse_web_command(R"({"cmd": "estop_all"})");
+  ASSERT_TRUE(all.command) << all.error;
+  EXPECT_EQ(all.command->kind, WebCommandKind::kEstopAll);
 }
 
 TEST(WebCommand, EverythingElseIsAClearError) {
@@ -43,7 +46,7 @@ TEST(WebCommand, EverythingElseIsAClearError) {
   EXPECT_EQ(error(""), "not JSON");
   EXPECT_EQ(error("[1, 2]"), "expected a JSON object");
   EXPECT_EQ(error(R"({"robot": 1})"), "missing \"cmd\" (a string)");
-  EXPECT_EQ(error(R"({"cmd": "estop_all"})"), "unknown command (known: visit, explore, reset)");
+  EXPECT_EQ(error(R"({"cmd": "estop"})"), "unknown command (known: visit, explore, reset, estop_all)");
   EXPECT_EQ(error(R"({"cmd": "explore"})"), "explore: \"run\" must be true (start) or false (stop)");
   EXPECT_EQ(error(R"({"cmd": "explore", "run": 1})"), "explore: \"run\" must be true (start) or false (stop)");
   EXPECT_EQ(error(R"({"cmd": "reset"})"), "reset: \"robot\" must be an integer 1..65535");

@@ -97,7 +97,7 @@ TEST(WebServer, NothingWithoutTheTokenAndTheRoutesWithIt) {
   EXPECT_EQ(ok.body, R"({"id":1,"ok":true,"status":"queued","type":"reply"})");
   const Reply bad = request(port, http::verb::post, "/api/command" + kQ, R"({"cmd":"dance"})");
   EXPECT_EQ(bad.status, 400);
-  EXPECT_EQ(bad.body, R"j({"error":"unknown command (known: visit, explore, reset)","ok":false,"type":"reply"})j");
+  EXPECT_EQ(bad.body, R"j({"error":"unknown command (known: visit, explore, reset, estop_all)","ok":false,"type":"reply"})j");
   EXPECT_EQ(server.counters().commands_refused.load(), 1u);
   const std::vector<QueuedWebCommand> cmds = server.take_commands();
   ASSERT_EQ(cmds.size(), 1u);

@@ -170,6 +170,29 @@ TEST(Convert, BidRoundTripsAndAnOversizedCountIsClamped) {
   EXPECT_EQ(back.n_items, msg::kMaxBids);
 }
 
+TEST(Convert, SafetyStopRoundTripsAndAnUnterminatedNameIsCut) {
+  msg::SafetyStop s;
+  s.robot_id = 0;  // every robot
+  s.seq = 4;
+  s.issued = 987654321;
+  const char who[] = "web view";
+  std::memcpy(s.issued_by.data(), who, sizeof who);
+  cairn_SafetyStop d{};
+  dds::to_dds(s, &d);
+  EXPECT_EQ(d.robot_id, 0);
+  EXPECT_STREQ(d.issued_by, who);
+  msg::SafetyStop s2;
+  s2.robot_id = 9;
+  EXPECT_TRUE(dds::from_dds(d, &s2));
+  EXPECT_EQ(s2.robot_id, 0);
+  EXPECT_EQ(s2.seq, 4u);
+  EXPECT_EQ(s2.issued, 987654321);
+  EXPECT_STREQ(s2.issued_by.data(), who);
+  std::memset(d.issued_by, 'x', sizeof d.issued_by);
+  EXPECT_TRUE(dds::from_dds(d, &s2));
+  EXPECT_EQ(std::strlen(s2.issued_by.data()), s2.issued_by.size() - 1);
+}
+
 TEST(Convert, SafetyResetRoundTripsAndAnUnterminatedNameIsCut) {
   msg::SafetyReset r;
   r.robot_id = 3;

@@ -119,9 +119,10 @@ void round_trip(const char* name, std::size_t padding, Fix&& fix) {
 static_assert(sizeof(cairn_RobotStatus) == 872 && sizeof(cairn_OdometryIncrement) == 152 && sizeof(cairn_LaserScan) == 2320 &&
               sizeof(cairn_FeatureObservations) == 1848 && sizeof(cairn_PoseCorrection) == 136 &&
               sizeof(cairn_TaskAssignment) == 1080 && sizeof(cairn_MapTile) == 4128 && sizeof(cairn_Bid) == 3992 &&
-              sizeof(cairn_FeatureMap) == 7200 && sizeof(cairn_SafetyReset) == 48 && sizeof(cairn_VisitRequest) == 64);
+              sizeof(cairn_FeatureMap) == 7200 && sizeof(cairn_SafetyReset) == 48 && sizeof(cairn_SafetyStop) == 48 &&
+              sizeof(cairn_VisitRequest) == 64);
 
-TEST(DdsLayer, RoundTripEveryTopicType) {  // all eleven @topic types of common/idl/cairn.idl
+TEST(DdsLayer, RoundTripEveryTopicType) {  // all twelve @topic types of common/idl/cairn.idl
   // robot_id (2) + stop_text (3) + n_devices (3) + 6 x DeviceStatus after `state` (3) + nav_state (3)
   round_trip<cairn_RobotStatus>("RobotStatus", 2 + 3 + 3 + 6 * 3 + 3, [](cairn_RobotStatus& s) {
     set_text(s.name, 'n');
@@ -142,6 +143,7 @@ TEST(DdsLayer, RoundTripEveryTopicType) {  // all eleven @topic types of common/
   round_trip<cairn_PoseCorrection>("PoseCorrection", 2, [](cairn_PoseCorrection&) {});
   round_trip<cairn_TaskAssignment>("TaskAssignment", 2 + 4 + 4 + 6, [](cairn_TaskAssignment& s) { s.kind = cairn_TASK_GOTO; });
   round_trip<cairn_SafetyReset>("SafetyReset", 2, [](cairn_SafetyReset& s) { set_text(s.issued_by, 'o'); });
+  round_trip<cairn_SafetyStop>("SafetyStop", 2, [](cairn_SafetyStop& s) { set_text(s.issued_by, 'e'); });
   round_trip<cairn_VisitRequest>("VisitRequest", 2, [](cairn_VisitRequest& s) { set_text(s.issued_by, 'v'); });
   round_trip<cairn_MapTile>("MapTile", 2, [](cairn_MapTile&) {});
   // robot_id (2) + after n_items (2) + after n_unreachable (2) + each UnreachableCluster after `kind` (3)

@@ -514,6 +514,25 @@ TEST_F(ExecutiveHil, EstopLatchesTorqueOffWithin20msAndOnlyAResetRestarts) {
   EXPECT_LE(press_to_torque_off.back(), 20.0 * testing::timing_slack());
   EXPECT_LE(press_to_relay_off.back(), 20.0 * testing::timing_slack());
   EXPECT_EQ(h.exec->rt_snapshot().resets_accepted, 6u);
+
+  // The base's remote e-stop (the bridge calls request_remote_stop on a SafetyStop): torque
+  // off and motor power off as on a press, latched with its own cause until a reset.
+  ASSERT_GT(h.run_until(moving, 10.0, &follower), 0);
+  h.run_until([] { return false; }, 0.2, &follower);
+  const Nanos asked = now_ns();
+  h.exec->request_remote_stop();
+  const Nanos off = torque_off_both(h, asked, kNanosPerSecond);
+  ASSERT_GT(off, 0) << "a remote stop left the drives in operation enabled";
+  const Nanos relay_off = wait_recorded([&] { return board.relay_off_written_at(); }, asked, kNanosPerSecond);
+  ASSERT_GT(relay_off, 0) << "a remote stop did not switch motor power off";
+  EXPECT_GT(h.run_until([&] { return reason() == StopReason::kResetRequired; }, 1.0, &follower), 0);
+  EXPECT_EQ(h.exec->rt_snapshot().latch_cause, firmware::LatchCause::kRemoteStop);
+  expect_stays_stopped(h, &follower, 0.5, StopReason::kResetRequired);
+  h.exec->request_reset();
+  EXPECT_GT(h.run_until(moving, 10.0, &follower), 0) << "no motion after the reset of a remote stop";
+  std::printf("remote e-stop -> torque off at both drives: %.2f ms, motor relay off written: %.2f ms\n", ms_of(off - asked),
+              ms_of(relay_off - asked));
+  EXPECT_LE(ms_of(off - asked), 20.0 * testing::timing_slack());
 }
 
 // The power thread's snapshot reason ("ok, ..." or the failed transaction).

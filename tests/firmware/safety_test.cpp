@@ -28,7 +28,7 @@ struct Robot {
   double field_reverse = std::numeric_limits<double>::infinity();
   double field_brake = std::numeric_limits<double>::infinity();
 
-  StopReason cycle(bool reset = false) {
+  StopReason cycle(bool reset = false, bool remote_stop = false) {
     clock.advance(kPeriod);
     const Nanos now = clock.now();
     if (power_ok) last_power = now;
@@ -43,6 +43,7 @@ struct Robot {
     in.last_feedback = last_feedback;
     in.last_can_pass = last_can;
     in.reset = reset;
+    in.remote_stop = remote_stop;
     in.v = want_v;
     in.w = want_w;
     in.field_forward_max_v = field_forward;
@@ -97,6 +98,32 @@ TEST(SafetyLatch, ReleasingTheEstopDoesNotRestartOnlyAResetDoes) {
   r.cycle(true);
   EXPECT_EQ(r.safety.resets_accepted(), 1u);
   EXPECT_EQ(r.safety.resets_refused(), 1u);
+}
+
+// The base's remote e-stop (SafetyStop): a momentary press from afar. It stops the robot in
+// the cycle it arrives and latches; a reset in that same cycle is refused (a stop and a reset
+// racing over the network must not cancel out); a later reset is accepted.
+TEST(SafetyLatch, ARemoteStopLatchesAtOnceAndARacingResetIsRefused) {
+  Robot r;
+  ASSERT_TRUE(r.moves_within(5));
+  EXPECT_EQ(r.cycle(true, true), StopReason::kResetRequired);
+  EXPECT_EQ(r.v, 0.0);
+  EXPECT_TRUE(r.safety.latched());
+  EXPECT_EQ(r.safety.latch_cause(), LatchCause::kRemoteStop);
+  EXPECT_STREQ(latch_cause_text(r.safety.latch_cause()), "remote e-stop");
+  EXPECT_EQ(r.safety.resets_refused(), 1u);
+  EXPECT_EQ(r.safety.resets_accepted(), 0u);
+  for (int i = 0; i < 1000; ++i) ASSERT_EQ(r.cycle(), StopReason::kResetRequired) << "cycle " << i;
+  // A second stop while latched keeps the first cause; then the reset.
+  EXPECT_EQ(r.cycle(false, true), StopReason::kResetRequired);
+  EXPECT_EQ(r.cycle(true), StopReason::kNone);
+  EXPECT_TRUE(r.safety.reset_accepted());
+  EXPECT_EQ(r.safety.latch_cause(), LatchCause::kNone);
+  EXPECT_TRUE(r.moves_within(3));
+  // A pressed e-stop latched first stays the cause a later remote stop does not overwrite.
+  r.estop = true;
+  r.cycle(false, true);
+  EXPECT_EQ(r.safety.latch_cause(), LatchCause::kEstop);
 }
 
 TEST(SafetyLatch, AStaleEstopInputStopsWithinItsBoundAndLatches) {

@@ -139,6 +139,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         p = fill(&d, p, end);
         msg::SafetyReset m;
         (void)dds::from_dds(d, &m);
+        cairn_SafetyStop ds;
+        p = fill(&ds, p, end);
+        msg::SafetyStop ms;
+        (void)dds::from_dds(ds, &ms);
         break;
       }
       case 6: {  // the base's global map, as the robot's bridge keeps it

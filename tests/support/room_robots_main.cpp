@@ -4,8 +4,8 @@
 // figures), exact odometry (20 Hz) and 360-beam scans ray-cast against the walls (5 Hz).
 // The walls are where the test looks for them on the page's canvas. Robot 1 bids for one
 // frontier (1 Hz); robot 2 starts latched ("reset required"), standing still, until a
-// SafetyReset for it arrives (as cairn-robot's bridge takes it; printed). Runs until
-// SIGINT/SIGTERM or --duration.
+// SafetyReset for it arrives (as cairn-robot's bridge takes it; printed); a SafetyStop for
+// it or for every robot (id 0) latches it again. Runs until SIGINT/SIGTERM or --duration.
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
@@ -59,6 +59,8 @@ int main(int argc, char** argv) {
   dds::Writer<cairn_Bid> bids(pp, bid_topic, dds::state_qos(1));
   dds::Topic<cairn_SafetyReset> reset_topic(pp);
   dds::Reader<cairn_SafetyReset> resets(pp, reset_topic, dds::state_qos(4));
+  dds::Topic<cairn_SafetyStop> stop_topic(pp);
+  dds::Reader<cairn_SafetyStop> stops(pp, stop_topic, dds::state_qos(4));
   bool latched[kRobots] = {false, true};
   auto scan_sample = std::make_unique<cairn_LaserScan>();
 
@@ -73,6 +75,14 @@ int main(int argc, char** argv) {
     clock.sleep_until(next);
     const Nanos t1 = clock.now();
     ++seq;
+    stops.take([&](const cairn_SafetyStop& m, const dds_sample_info_t&) {
+      for (int r = 0; r < kRobots; ++r) {
+        if (m.robot_id != 0 && m.robot_id != r + 1) continue;
+        latched[r] = true;
+        std::printf("robot %d: remote e-stop by '%s'\n", r + 1, m.issued_by);
+      }
+      std::fflush(stdout);
+    });
     resets.take([&](const cairn_SafetyReset& m, const dds_sample_info_t&) {
       if (m.robot_id < 1 || m.robot_id > kRobots || !latched[m.robot_id - 1]) return;
       latched[m.robot_id - 1] = false;

@@ -452,6 +452,30 @@ def main():
         shown = poll(lambda: "accepted" in driver.find_element(By.ID, "commands").text, 5)
         check(bool(shown), "the page's Commands table shows it accepted")
 
+        # E-STOP ALL: one SafetyStop for every robot; both fake robots latch (robot 1 stops on its
+        # circle), the page then offers both a reset; robot 1's reset makes it drive again.
+        driver.find_element(By.ID, "estop-all").click()
+        all_latched = poll(lambda: driver.execute_script("""
+            const s = window.cairnView.state;
+            const c = s.commands.find((x) => x.cmd === "estop_all");
+            return c && s.robots.every((r) => r.reset_required) ? c : null;"""), 10)
+        # Both fake robots live in one process: one participant, one reader.
+        check(bool(all_latched) and "(1 robot reader(s) matched)" in all_latched["result"],
+              f"'E-STOP ALL': both robots latched, the base's writer matched the fake robots' reader: {all_latched}")
+        robots_log = os.path.join(out, "robots.log")
+        check(bool(poll(lambda: read(robots_log).count("remote e-stop by 'web view'") == 2, 5)),
+              "each fake robot received the remote e-stop from the web view")
+        check(bool(poll(lambda: "remote e-stop of every robot #1 asked by the web view" in read(base_log), 5)),
+              "the base logged the e-stop")
+        button = poll(lambda: driver.find_elements(By.CSS_SELECTOR, 'button.reset[data-robot="1"]'), 5)
+        if button:
+            button[0].click()
+        again = poll(lambda: driver.execute_script("""
+            const s = window.cairnView.state;
+            const r1 = s.robots.find((x) => x.id === 1), r2 = s.robots.find((x) => x.id === 2);
+            return !r1.reset_required && r2.reset_required ? true : null;"""), 10)
+        check(bool(again), "robot 1's reset after the e-stop: robot 1 free, robot 2 still latched")
+
         errors = [e["message"] for e in driver.get_log("browser") if e["level"] == "SEVERE" and "401" not in e["message"]]
         check(not errors, f"no error in the page's console (the 401s aside): {errors[:3]}")
 

@@ -24,7 +24,7 @@ TopicEntry entry(const char* type_name, QosSpec record, QosSpec replay) {
 // writer (a transient-local reader would not match a volatile writer), yet a latched
 // topic's history reaches a recorder started late. Replay QoS: as firmware/robot_bridge.cpp
 // and basestation/ write each topic (the 512-deep fusion history, latched maps and tasks).
-const std::array<TopicEntry, 11> kTopics = {
+const std::array<TopicEntry, 12> kTopics = {
     entry<cairn_RobotStatus>("cairn::RobotStatus", state_qos(64), state_qos(1)),
     entry<cairn_OdometryIncrement>("cairn::OdometryIncrement", latched_qos(512), latched_qos(512)),
     entry<cairn_LaserScan>("cairn::LaserScan", sensor_qos(64), sensor_qos(4)),
@@ -32,6 +32,7 @@ const std::array<TopicEntry, 11> kTopics = {
     entry<cairn_PoseCorrection>("cairn::PoseCorrection", latched_qos(64), latched_qos(1)),
     entry<cairn_TaskAssignment>("cairn::TaskAssignment", latched_qos(64), latched_qos(1)),
     entry<cairn_SafetyReset>("cairn::SafetyReset", state_qos(64), state_qos(4)),
+    entry<cairn_SafetyStop>("cairn::SafetyStop", state_qos(64), state_qos(4)),
     entry<cairn_MapTile>("cairn::MapTile", latched_qos(4), latched_qos(1)),
     entry<cairn_Bid>("cairn::Bid", state_qos(64), state_qos(1)),
     entry<cairn_FeatureMap>("cairn::FeatureMap", latched_qos(8), latched_qos(1)),

@@ -1,6 +1,6 @@
 // Cairn's live view: draws what cairn-base pushes over its WebSocket (docs/web-view.md);
 // sends a visit request for the chosen robot where the map is clicked, stops and starts the
-// exploration, and asks for a robot's e-stop reset.
+// exploration, e-stops every robot, and asks for a robot's e-stop reset.
 "use strict";
 
 const token = new URLSearchParams(location.search).get("token") || "";
@@ -183,7 +183,8 @@ function panel() {
   const cmds = document.querySelector("#commands tbody");
   cmds.replaceChildren();
   for (const c of s.commands) {
-    const target = c.cmd === "visit" ? `(${c.x.toFixed(2)}, ${c.y.toFixed(2)})` : c.cmd === "explore" ? (c.run ? "start" : "stop") : "";
+    const target = c.cmd === "visit" ? `(${c.x.toFixed(2)}, ${c.y.toFixed(2)})` : c.cmd === "explore" ? (c.run ? "start" : "stop")
+      : c.cmd === "estop_all" ? "every robot" : "";
     cmds.append(row([String(c.id), c.cmd, text(c.robot), target, c.result]));
   }
   const button = document.getElementById("explore");
@@ -237,5 +238,6 @@ canvas.addEventListener("click", (ev) => {
 });
 document.getElementById("explore").addEventListener("click", (ev) => send({ cmd: "explore", run: ev.target.dataset.run === "true" }));
 document.getElementById("show-explore").addEventListener("change", draw);
+document.getElementById("estop-all").addEventListener("click", () => send({ cmd: "estop_all" }));
 
 connect();
