@@ -79,6 +79,8 @@ class FoxgloveSession : public std::enable_shared_from_this<FoxgloveSession> {
                    {"metadata", {{"frame", "map"}, {"docs", "docs/web-view.md"}}}}
                   .dump(),
               false);
+    // The spec: at least one advertise on connect, even before the main loop's first snapshot.
+    if (!server_->latest_foxglove()) send_text(R"({"channels":[],"op":"advertise"})", false);
     read();
     tick(beast::error_code{});
   }

@@ -104,6 +104,9 @@ TEST(FoxgloveServer, TheUpgradeNeedsTheTokenAndAcceptsTheSubprotocol) {
   ASSERT_TRUE(info);
   EXPECT_EQ((*info)["name"], "cairn-base");
   EXPECT_TRUE((*info)["capabilities"].is_array());
+  const auto adv = ok.next_op("advertise", nullptr, 0);  // at once, even before the first snapshot: no channels yet
+  ASSERT_TRUE(adv);
+  EXPECT_TRUE((*adv)["channels"].empty());
   FoxgloveClient on_foxglove_path(server.port(), "/foxglove?token=" + std::string(kToken));
   EXPECT_FALSE(on_foxglove_path.error) << on_foxglove_path.error.message();
   EXPECT_TRUE(eventually([&] { return server.counters().foxglove_sessions.load() == 2; }));
