@@ -205,6 +205,50 @@ TEST(FoxgloveServer, ASubscriptionGetsTheMapAndAnUnsubscribeStopsIt) {
   for (const auto& m : between) EXPECT_NE(test::message_data(m).value_or(test::MessageData{}).subscription, 17u);
 }
 
+// A snapshot of hand-made channels: ids as given, each with a payload of its own version.
+std::shared_ptr<const FoxgloveSnapshot> channels(std::vector<std::uint32_t> ids, std::uint64_t version) {
+  auto s = std::make_shared<FoxgloveSnapshot>();
+  for (const std::uint32_t id : ids)
+    s->channels.push_back({id, "/t" + std::to_string(id), "cairn.Test", R"({"type":"object"})",
+                           std::make_shared<const std::string>("{\"v\":" + std::to_string(version) + "}"), version, version});
+  return s;
+}
+
+TEST(FoxgloveServer, ChannelsThatGoAreUnadvertisedAndTheirSubscriptionsEnd) {
+  WebServer server(options());
+  server.publish_foxglove(channels({1, 7}, 1));
+  FoxgloveClient c(server.port(), kQ);
+  const auto adv = c.next_op("advertise");
+  ASSERT_TRUE(adv);
+  EXPECT_EQ((*adv)["channels"].size(), 2u);
+  c.send_text(subscribe(3, 7));
+  const auto f = c.next_message_data();
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->payload, R"({"v":1})");
+  server.publish_foxglove(channels({1}, 2));
+  const auto gone = c.next_op("unadvertise");
+  ASSERT_TRUE(gone);
+  EXPECT_EQ((*gone)["channelIds"], json::array({7}));
+  c.send_text(R"({"op":"unsubscribe","subscriptionIds":[3]})");  // ended with its channel
+  auto s = c.next_op("status");
+  ASSERT_TRUE(s);
+  EXPECT_EQ((*s)["message"], "unsubscribe: unknown subscription id 3");
+  c.send_text(subscribe(3, 7));
+  s = c.next_op("status");
+  ASSERT_TRUE(s);
+  EXPECT_EQ((*s)["message"], "subscribe: unknown channel id 7");
+  server.publish_foxglove(channels({1, 7}, 3));  // back: advertised again, the id free for reuse
+  const auto back = c.next_op("advertise");
+  ASSERT_TRUE(back);
+  ASSERT_EQ((*back)["channels"].size(), 1u);
+  EXPECT_EQ((*back)["channels"][0]["id"], 7);
+  c.send_text(subscribe(3, 7));
+  const auto again = c.next_message_data();
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->subscription, 3u);
+  EXPECT_EQ(again->payload, R"({"v":3})");
+}
+
 TEST(FoxgloveServer, MalformedOpsGetAStatusErrorAndTheSocketGoesOn) {
   WebServer server(options());
   Publisher pub;
