@@ -3,6 +3,7 @@
 
 #include <CLI/CLI.hpp>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -18,6 +19,7 @@
 #include "basestation/fusion_node.hpp"
 #include "basestation/grid_map_node.hpp"
 #include "basestation/visit_request.hpp"
+#include "basestation/web/foxglove_channels.hpp"
 #include "basestation/web/web_page.hpp"
 #include "basestation/web/web_server.hpp"
 #include "basestation/web/web_state.hpp"
@@ -83,6 +85,12 @@ void export_map(base::GridMapNode& map, const base::FusionNode& fusion, const ba
 template <std::size_t N>
 std::string idl_text(const char (&a)[N]) {
   return std::string(a, strnlen(a, N));
+}
+
+// Foxglove's timeline is wall time: ns since the Unix epoch.
+std::uint64_t wall_clock_ns() {
+  return static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
 }
 
 // The web view's device rows, from the robot's status (bounded by the IDL's MAX_DEVICES).
@@ -243,6 +251,7 @@ int run(const std::string& config_path, double duration_s) {
   }
   std::map<std::uint64_t, base::WebCommand> reset_commands;  // by command id, while under way
   std::uint64_t web_map_version = 0;
+  base::FoxgloveChannels foxglove;  // the same state and map for Foxglove clients (docs/web-view.md)
 
   const Nanos end = duration_s > 0 ? start + seconds_to_nanos(duration_s) : 0;
   Nanos next_table = start + cfg.table_period;
@@ -291,14 +300,17 @@ int run(const std::string& config_path, double duration_s) {
         web_state.on_command_result(id, it->second, (result.ok() ? "done: " : "failed: ") + result.message);
         reset_commands.erase(it);
       }
-      if (now >= next_web_state) {
-        next_web_state = now + cfg.web.state_period;
-        web->publish_state(std::make_shared<const std::string>(
-            web_state.state_json(now, fleet, fusion ? &fusion->fusion() : nullptr, explore ? &explore->allocator() : nullptr)));
-      }
       if (map && now >= next_web_map) {
         next_web_map = now + cfg.web.map_period;
         web->publish_map(std::make_shared<const std::string>(base::WebState::map_json(map->mapper().classified(), ++web_map_version)));
+        foxglove.set_map(map->mapper().classified(), wall_clock_ns());
+      }
+      if (now >= next_web_state) {
+        next_web_state = now + cfg.web.state_period;
+        const base::Fusion* f = fusion ? &fusion->fusion() : nullptr;
+        auto state = std::make_shared<const std::string>(web_state.state_json(now, fleet, f, explore ? &explore->allocator() : nullptr));
+        web->publish_state(state);
+        web->publish_foxglove(foxglove.snapshot(fleet, f, std::move(state), wall_clock_ns()));  // the same text on /cairn/state
       }
     }
     if (now >= next_table) {

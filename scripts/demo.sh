@@ -68,6 +68,7 @@ for _ in $(seq 50); do grep -q "^web view listening" "$run/base.out" 2>/dev/null
 web_port=$(sed -n 's/^web view listening on 127\.0\.0\.1 port \([0-9]*\)$/\1/p' "$run/base.out" | head -1)
 if [ -n "$web_port" ]; then
   echo "demo: live view (open it in a browser): http://127.0.0.1:$web_port/?token=$token"
+  echo "demo: in Foxglove (Open connection, Foxglove WebSocket): ws://127.0.0.1:$web_port/?token=$token"
 else
   echo "demo: the web view did not start (see $run/base.err); the demo goes on without it" >&2
 fi

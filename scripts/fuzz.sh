@@ -13,7 +13,7 @@ cmake --preset fuzz >/dev/null
 cmake --build --preset fuzz --target fuzzers >/dev/null   # the fuzz targets only
 work=build/fuzz/run
 mkdir -p "$work" build/fuzz/crashes
-declare -A corpus=([fuzz_lms_codec]=lms_replies [fuzz_lms_request]=lms_requests [fuzz_canopen]=canopen [fuzz_modbus]=modbus [fuzz_modbus_rtu]=modbus_rtu [fuzz_carmen]=carmen [fuzz_network]=network [fuzz_files]=files [fuzz_mcap]=mcap [fuzz_web_command]=web_command)
+declare -A corpus=([fuzz_lms_codec]=lms_replies [fuzz_lms_request]=lms_requests [fuzz_canopen]=canopen [fuzz_modbus]=modbus [fuzz_modbus_rtu]=modbus_rtu [fuzz_carmen]=carmen [fuzz_network]=network [fuzz_files]=files [fuzz_mcap]=mcap [fuzz_web_command]=web_command [fuzz_foxglove_op]=foxglove_op)
 targets=($(printf '%s\n' "${!corpus[@]}" | sort))
 
 # One target: its own working corpus (a copy: the seeds in the repository stay as they are)

@@ -13,6 +13,8 @@
 #include <optional>
 #include <stdexcept>
 
+#include "basestation/web/foxglove_session.hpp"
+#include "basestation/web/web_server_impl.hpp"
 #include "common/log.hpp"
 
 namespace cairn::base {
@@ -64,90 +66,47 @@ std::string inline_script(std::string_view html, std::string_view js) {
 
 }  // namespace
 
-struct WebServer::Impl {
-  explicit Impl(WebServerOptions o) : options(std::move(o)), page(inline_script(options.index_html, options.app_js)) {}
+WebServer::Impl::Impl(WebServerOptions o) : options(std::move(o)), page(inline_script(options.index_html, options.app_js)) {}
 
-  // Declared before ioc: the sessions its destruction destroys still count down here.
-  WebServerOptions options;
-  const std::string page;
-  WebCounters counters;
-  int connections = 0;  // io thread only (and the destructor, after the thread)
+bool WebServer::Impl::authorised(const http::request<http::string_body>& req) const {
+  const std::string_view target(req.target().data(), req.target().size());
+  const std::size_t q = target.find('?');
+  if (q != std::string_view::npos && token_equal(query_token(target.substr(q + 1)), options.token)) return true;
+  const auto h = req.find("X-Cairn-Token");
+  if (h != req.end() && token_equal(std::string_view(h->value().data(), h->value().size()), options.token)) return true;
+  const auto a = req.find(http::field::authorization);
+  if (a != req.end()) {
+    const std::string_view v(a->value().data(), a->value().size());
+    if (v.starts_with("Bearer ") && token_equal(v.substr(7), options.token)) return true;
+  }
+  return false;
+}
 
-  std::mutex mu;
-  std::shared_ptr<const std::string> state, map;  // under mu
-  std::uint64_t state_version = 0, map_version = 0;  // under mu
-  std::deque<QueuedWebCommand> commands;  // under mu
-  std::uint64_t next_command_id = 1;      // under mu
-
-  asio::io_context ioc{1};
-  tcp::acceptor acceptor{ioc};
-
-  struct Latest {
-    std::shared_ptr<const std::string> state, map;
-    std::uint64_t state_version = 0, map_version = 0;
-  };
-  Latest latest() {
+std::string WebServer::Impl::enqueue(std::string_view text) {
+  const WebCommandParse p = parse_web_command(text);
+  if (!p.command) {
+    ++counters.commands_refused;
+    return nlohmann::json{{"type", "reply"}, {"ok", false}, {"error", p.error}}.dump();
+  }
+  std::uint64_t id = 0;
+  {
     const std::lock_guard lock(mu);
-    return {state, map, state_version, map_version};
+    if (commands.size() < kMaxQueuedCommands) {
+      id = next_command_id++;
+      commands.push_back({id, *p.command});
+    }
   }
-
-  bool authorised(const http::request<http::string_body>& req) const {
-    const std::string_view target(req.target().data(), req.target().size());
-    const std::size_t q = target.find('?');
-    if (q != std::string_view::npos && token_equal(query_token(target.substr(q + 1)), options.token)) return true;
-    const auto h = req.find("X-Cairn-Token");
-    if (h != req.end() && token_equal(std::string_view(h->value().data(), h->value().size()), options.token)) return true;
-    const auto a = req.find(http::field::authorization);
-    if (a != req.end()) {
-      const std::string_view v(a->value().data(), a->value().size());
-      if (v.starts_with("Bearer ") && token_equal(v.substr(7), options.token)) return true;
-    }
-    return false;
+  if (id == 0) {
+    ++counters.queue_full;
+    return nlohmann::json{{"type", "reply"}, {"ok", false}, {"error", "busy: too many commands waiting"}}.dump();
   }
-
-  /// Parses and queues one command; returns the JSON reply.
-  std::string enqueue(std::string_view text) {
-    const WebCommandParse p = parse_web_command(text);
-    if (!p.command) {
-      ++counters.commands_refused;
-      return nlohmann::json{{"type", "reply"}, {"ok", false}, {"error", p.error}}.dump();
-    }
-    std::uint64_t id = 0;
-    {
-      const std::lock_guard lock(mu);
-      if (commands.size() < kMaxQueuedCommands) {
-        id = next_command_id++;
-        commands.push_back({id, *p.command});
-      }
-    }
-    if (id == 0) {
-      ++counters.queue_full;
-      return nlohmann::json{{"type", "reply"}, {"ok", false}, {"error", "busy: too many commands waiting"}}.dump();
-    }
-    ++counters.commands_queued;
-    return nlohmann::json{{"type", "reply"}, {"ok", true}, {"id", id}, {"status", "queued"}}.dump();
-  }
-};
+  ++counters.commands_queued;
+  return nlohmann::json{{"type", "reply"}, {"ok", true}, {"id", id}, {"status", "queued"}}.dump();
+}
 
 namespace {
 
 using Impl = WebServer::Impl;
-
-// One connection's place under kMaxConnections, given back when the session ends.
-class ConnectionSlot {
- public:
-  explicit ConnectionSlot(Impl* s) : s_(s) { ++s_->connections; }
-  ConnectionSlot(ConnectionSlot&& o) noexcept : s_(std::exchange(o.s_, nullptr)) {}
-  ConnectionSlot(const ConnectionSlot&) = delete;
-  ConnectionSlot& operator=(const ConnectionSlot&) = delete;
-  ConnectionSlot& operator=(ConnectionSlot&&) = delete;
-  ~ConnectionSlot() {
-    if (s_) --s_->connections;
-  }
-
- private:
-  Impl* s_;
-};
 
 class WsSession : public std::enable_shared_from_this<WsSession> {
  public:
@@ -266,9 +225,16 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     }
     ++server_->counters.requests;
     http::request<http::string_body> req = parser_->release();
-    if (websocket::is_upgrade(req) && server_->authorised(req) && path(req) == "/ws") {
-      std::make_shared<WsSession>(stream_.release_socket(), server_, std::move(slot_))->run(req);
-      return;
+    if (websocket::is_upgrade(req) && server_->authorised(req)) {
+      const std::string_view p = path(req);
+      if (offers_foxglove_subprotocol(req) && (p == "/" || p == "/foxglove")) {
+        start_foxglove_session(stream_.release_socket(), server_, std::move(slot_), req);
+        return;
+      }
+      if (p == "/ws") {
+        std::make_shared<WsSession>(stream_.release_socket(), server_, std::move(slot_))->run(req);
+        return;
+      }
     }
     send(handle(req));
   }
@@ -394,6 +360,11 @@ void WebServer::publish_map(std::shared_ptr<const std::string> json) {
   const std::lock_guard lock(impl_->mu);
   impl_->map = std::move(json);
   ++impl_->map_version;
+}
+
+void WebServer::publish_foxglove(std::shared_ptr<const FoxgloveSnapshot> snapshot) {
+  const std::lock_guard lock(impl_->mu);
+  impl_->foxglove = std::move(snapshot);
 }
 
 std::vector<QueuedWebCommand> WebServer::take_commands() {
