@@ -18,6 +18,7 @@ core=(
   googletest libgtest-dev libgmock-dev libbenchmark-dev
   libsystemd-dev dpkg-dev openssh-client openssh-server
   mount fdisk e2fsprogs xz-utils openssl
+  iproute2 util-linux
 )
 extra=()
 vm_kernel=0
