@@ -423,9 +423,15 @@ void NetnsFleet::run_fleet(const std::string& profile) {
     const auto cut = Clock::now();
     // Both sides notice: the robot stops (link timeout), the base sees its status lease
     // (1.5 s) expire. Each time is taken when its line is first read.
-    std::optional<double> stop, lost;
+    std::optional<double> stop, lost, first_stop;
+    std::string first_stop_line;
     pump.until(
         [&] {
+          if (!first_stop && has_after(robot2, m_r2, "safety: stop: ")) {
+            first_stop = since(cut);
+            first_stop_line = robot2.output().substr(robot2.output().find("safety: stop: ", m_r2));
+            first_stop_line = first_stop_line.substr(0, first_stop_line.find('\n'));
+          }
           if (!stop && has_after(robot2, m_r2, "stop: base-station link lost")) stop = since(cut);
           if (!lost && has_after(*base, m_b, "fleet: robot 2 lost")) lost = since(cut);
           return stop && lost;
@@ -439,6 +445,12 @@ void NetnsFleet::run_fleet(const std::string& profile) {
     EXPECT_GE(f.stop_s[0], kLinkTimeoutS - 0.4);
     EXPECT_LE(f.stop_s[0], kLinkTimeoutS + 1.0);
     EXPECT_LE(f.lost_s, 1.5 + 1.0);  // [status] liveliness_lease_s of config/robot-hil.toml
+    // Known (docs/dds.md): with the base unreachable the robot's DDS sends queue behind
+    // unresolved ARP until its socket buffer is full, and dds_write blocks its main thread
+    // in sendmsg; the RT loop then stops it for "no velocity command" before the link
+    // timeout. Printed, not yet asserted: the fix is the next step.
+    std::printf("[%s] b: robot 2's first stop after the cut: '%s' after %.2f s\n", profile.c_str(), first_stop_line.c_str(),
+                first_stop.value_or(-1));
     // It stands: the bench's odometer (reports every 0.5 s) from the second report after
     // the stop (braking done) to the fourth.
     const std::string report2 = "cairn-hil: robot 2 at ";
