@@ -435,6 +435,12 @@ bool Fusion::localized(std::uint16_t robot) const {
   return it != tracks_.end() && it->second.localized && filter_.has_robot(robot);
 }
 
+std::optional<Fusion::RobotProgress> Fusion::progress(std::uint16_t robot) const {
+  auto it = tracks_.find(robot);
+  if (it == tracks_.end()) return std::nullopt;
+  return RobotProgress{it->second.epoch, it->second.odom_seq, it->second.feature_seq, localized(robot)};
+}
+
 bool Fusion::correction(std::uint16_t robot, Nanos stamp, msg::PoseCorrection* out) const {
   if (!localized(robot)) return false;
   const Track& t = tracks_.at(robot);

@@ -110,6 +110,13 @@ class Fusion {
   const ccml::CcmlFilter& filter() const { return filter_; }
   const FusionCounters& counters() const { return counters_; }
   bool localized(std::uint16_t robot) const;
+  /// How far the base has come with one robot's streams in its current boot: the last
+  /// odometry and feature seq applied (the robot numbers each stream from 1 per boot).
+  struct RobotProgress {
+    std::uint32_t boot_epoch = 0, odom_seq = 0, feature_seq = 0;
+    bool localized = false;
+  };
+  std::optional<RobotProgress> progress(std::uint16_t robot) const;
   /// The robot passed admission (listed, or an unknown robot within the cap).
   bool admitted(std::uint16_t robot) const { return tracks_.contains(robot); }
   /// Every number of the joint state (mean and covariance) is finite.

@@ -84,6 +84,26 @@ void FusionNode::poll(Nanos now) {
   }
 }
 
+std::string FusionNode::robot_lines(const char* prefix) const {
+  std::string out;
+  for (std::uint16_t id : fusion_.robots()) {
+    const auto p = fusion_.progress(id);
+    if (!p) continue;
+    char line[240];
+    int n = std::snprintf(line, sizeof line, "%sfusion robot %u: boot %08x, odometry seq %u, features seq %u, ", prefix,
+                          static_cast<unsigned>(id), p->boot_epoch, p->odom_seq, p->feature_seq);
+    msg::PoseCorrection c;
+    if (n > 0 && fusion_.correction(id, 0, &c)) {
+      std::snprintf(line + n, sizeof line - static_cast<std::size_t>(n), "localised at %.3f %.3f %.4f rad\n", c.global_pose.x,
+                    c.global_pose.y, c.global_pose.theta);
+    } else if (n > 0) {
+      std::snprintf(line + n, sizeof line - static_cast<std::size_t>(n), "not localised\n");
+    }
+    out += line;
+  }
+  return out;
+}
+
 std::string FusionNode::summary() const {
   const FusionCounters& c = fusion_.counters();
   char buf[1024];

@@ -26,6 +26,10 @@ class FusionNode {
   void poll(Nanos now);
   /// One line with the counters, for the console.
   std::string summary() const;
+  /// One line per robot, each after `prefix`: "fusion robot ID: boot B, odometry seq N,
+  /// features seq M, localised at X Y THETA rad|not localised" (the global estimate; the base's
+  /// table and its final lines).
+  std::string robot_lines(const char* prefix = "") const;
   const Fusion& fusion() const { return fusion_; }
   const StateStore& store() const { return store_; }
 

@@ -318,13 +318,15 @@ int run(const std::string& config_path, double duration_s) {
       if (tty) std::printf("\033[2J\033[H");
       std::printf("[%8.3f] fleet: %zu alive, %llu status(es) of unlisted robots refused\n%s", nanos_to_seconds(now - start),
                   fleet.alive_count(), static_cast<unsigned long long>(fleet.refused()), fleet.table(now).c_str());
-      if (fusion) std::printf("[%8.3f] %s\n", nanos_to_seconds(now - start), fusion->summary().c_str());
+      if (fusion) std::printf("[%8.3f] %s\n%s", nanos_to_seconds(now - start), fusion->summary().c_str(), fusion->robot_lines().c_str());
       if (map) std::printf("[%8.3f] %s\n", nanos_to_seconds(now - start), map->summary().c_str());
       if (explore) std::printf("[%8.3f] %s\n", nanos_to_seconds(now - start), explore->summary().c_str());
       std::fflush(stdout);
     }
   }
-  if (fusion) std::printf("[%8.3f] final %s\n", nanos_to_seconds(clock.now() - start), fusion->summary().c_str());
+  if (fusion)
+    std::printf("[%8.3f] final %s\n%s", nanos_to_seconds(clock.now() - start), fusion->summary().c_str(),
+                fusion->robot_lines("final ").c_str());
   if (map) {
     export_map(*map, *fusion, explore.get(), cfg.map_export_dir, "exit");
     std::printf("[%8.3f] final %s\n", nanos_to_seconds(clock.now() - start), map->summary().c_str());

@@ -83,7 +83,9 @@ int run(const std::string& config_path, int id_override, const std::string& name
   cfg.executive.boot_epoch = std::random_device{}();  // a restart is a new epoch at the base
   logger().start();
   dds::Participant pp(cfg.dds);
-  CAIRN_LOG_INFO("robot", "{}; DDS {}", describe(cfg), pp.describe());
+  // Two lines: the logger keeps 192 characters of each.
+  CAIRN_LOG_INFO("robot", "{}", describe(cfg));
+  CAIRN_LOG_INFO("robot", "robot {}: DDS {}", cfg.id, pp.describe());
   firmware::RobotBridge bridge(pp, cfg);
   auto& clock = MonotonicClock::instance();
   std::unique_ptr<firmware::Executive> exec;

@@ -19,6 +19,7 @@ core=(
   libsystemd-dev dpkg-dev openssh-client openssh-server
   mount fdisk e2fsprogs xz-utils openssl
   chromium chromium-driver python3-selenium   # web_view_browser_test (tests/web/web_view_test.py)
+  iproute2 util-linux
 )
 extra=()
 vm_kernel=0

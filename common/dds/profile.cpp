@@ -1,8 +1,12 @@
 #include "common/dds/profile.hpp"
 
+#include <arpa/inet.h>
 #include <dds/dds.h>
 #include <dlfcn.h>
 #include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
 
 #include <cstdlib>
 #include <fstream>
@@ -24,7 +28,64 @@ DdsProfile loopback_profile(std::uint32_t domain) {
           "interface lo, multicast off, unicast peer 127.0.0.1, participant index auto (max 60)", domain, true};
 }
 
+std::string lan_interface_problem(const std::string& name) {
+  if (name.empty()) return "an interface name is needed (e.g. \"eth0\"): the lan profile never autodetects one";
+  if (name.size() > 15) return "\"" + name + "\" is longer than an interface name can be (15 characters)";
+  if (name == "." || name == "..") return "\"" + name + "\" is not an interface name";
+  for (char c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_' && c != '.')
+      return "\"" + name + "\": an interface name here is letters, digits, '-', '_' and '.'";
+  return "";
+}
+
+std::string lan_peer_problem(const std::string& peer) {
+  if (peer.empty()) return "an empty peer address";
+  // A literal address: unicast only (the profile turns multicast off; a multicast or
+  // unspecified peer would be silently useless).
+  std::string literal = peer;
+  if (literal.size() > 2 && literal.front() == '[' && literal.back() == ']') literal = literal.substr(1, literal.size() - 2);
+  in_addr v4{};
+  in6_addr v6{};
+  if (literal == peer && inet_pton(AF_INET, literal.c_str(), &v4) == 1) {
+    const std::uint32_t a = ntohl(v4.s_addr);
+    if ((a >> 28) == 0xE) return peer + " is a multicast address: peers are unicast";
+    if (a == 0 || a == 0xFFFFFFFFu) return peer + " is not a host's address";
+    return "";
+  }
+  if (inet_pton(AF_INET6, literal.c_str(), &v6) == 1) {
+    if (v6.s6_addr[0] == 0xFF) return peer + " is a multicast address: peers are unicast";
+    if (IN6_IS_ADDR_UNSPECIFIED(&v6)) return peer + " is not a host's address";
+    return "";
+  }
+  if (literal != peer) return peer + ": not an IPv6 address";
+  // A host name (RFC 1123): labels of letters, digits and '-', separated by dots. No port:
+  // Cyclone derives the ports from the domain and the participant index.
+  if (peer.size() > 253) return "peer name too long: " + peer;
+  std::size_t label = 0;
+  for (std::size_t i = 0; i < peer.size(); ++i) {
+    const char c = peer[i];
+    if (c == '.') {
+      if (label == 0) return "\"" + peer + "\" is neither an address nor a host name";
+      label = 0;
+      continue;
+    }
+    if (c == ':') return "\"" + peer + "\": a peer is an address or a host name, without a port (Cyclone derives the ports)";
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-')
+      return "\"" + peer + "\" is neither an address nor a host name";
+    if (++label > 63) return "\"" + peer + "\": a label of a host name is at most 63 characters";
+  }
+  if (label == 0) return "\"" + peer + "\" is neither an address nor a host name";
+  return "";
+}
+
 DdsProfile lan_profile(const std::string& interface_name, const std::vector<std::string>& peers, std::uint32_t domain) {
+  if (const std::string why = lan_interface_problem(interface_name); !why.empty()) throw std::invalid_argument(why);
+  if (peers.empty()) throw std::invalid_argument("at least one unicast peer address is needed (multicast is off)");
+  for (std::size_t i = 0; i < peers.size(); ++i) {
+    if (const std::string why = lan_peer_problem(peers[i]); !why.empty()) throw std::invalid_argument(why);
+    if (std::find(peers.begin(), peers.begin() + static_cast<std::ptrdiff_t>(i), peers[i]) != peers.begin() + static_cast<std::ptrdiff_t>(i))
+      throw std::invalid_argument(peers[i] + " is listed twice");
+  }
   std::ostringstream xml, desc;
   xml << "<CycloneDDS><Domain id=\"any\"><General><Interfaces><NetworkInterface name=\"" << interface_name
       << "\"/></Interfaces><AllowMulticast>false</AllowMulticast></General><Discovery>"
@@ -124,11 +185,18 @@ DdsProfile profile_from_config(const std::optional<ConfigSection>& s) {
   }
   if (name == "lan" || name == "secure") {
     const std::string iface = s->string("interface");
+    if (const std::string why = lan_interface_problem(iface); !why.empty()) s->fail("interface", why);
     const auto peers = s->strings("peers");
     if (peers.empty()) s->fail("peers", "profile \"" + name + "\" needs at least one peer address");
-    if (name == "lan") return lan_profile(iface, peers, domain);
+    DdsProfile lan;
     try {
-      return secured(lan_profile(iface, peers, domain), s->string("keys"));
+      lan = lan_profile(iface, peers, domain);
+    } catch (const std::invalid_argument& e) {
+      s->fail("peers", e.what());
+    }
+    if (name == "lan") return lan;
+    try {
+      return secured(lan, s->string("keys"));
     } catch (const std::invalid_argument& e) {
       s->fail("keys", e.what());
     }

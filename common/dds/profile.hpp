@@ -33,8 +33,14 @@ struct DdsProfile {
 /// The built-in loopback profile (the text of config/dds/loopback.xml).
 const std::string& loopback_xml();
 DdsProfile loopback_profile(std::uint32_t domain = 0);
+/// One named interface (never autodetected) and unicast peers: IPv4 or IPv6 addresses
+/// (unicast; IPv6 optionally in brackets) or host names, no ports, each once. Throws
+/// std::invalid_argument saying what is wrong with them.
 DdsProfile lan_profile(const std::string& interface_name, const std::vector<std::string>& peers,
                        std::uint32_t domain = 0);
+/// Why a [dds] interface or peer would be refused ("" if it is fine).
+std::string lan_interface_problem(const std::string& name);
+std::string lan_peer_problem(const std::string& peer);
 
 /// DDS Security for one member of the fleet (scripts/fleet-keys.sh): `member_dir` holds
 /// cert.pem, key.pem, ca.pem, governance.p7s, permissions.p7s and crl.pem. PKI-DH

@@ -73,6 +73,8 @@ canopen::WheelCommand RobotCore::control(const ControlInputs& c, double dt) {
   const StopReason reason = safety_.evaluate(in, dt, &v, &w);
   if (reason != stop_ && reason != StopReason::kNone) {
     CAIRN_LOG_WARN("safety", "stop: {}", stop_reason_text(reason));
+  } else if (reason != stop_) {
+    CAIRN_LOG_INFO("safety", "clear: {} is over", stop_reason_text(stop_));
   }
   stop_ = reason;
   v_ = v;

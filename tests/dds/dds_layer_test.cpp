@@ -55,6 +55,20 @@ TEST(DdsProfile, FromConfig) {
   auto nopeers = ConfigDocument::parse("[dds]\nprofile = \"lan\"\ninterface = \"eth0\"\npeers = []\n", "z.toml");
   EXPECT_THROW(profile_from_config(nopeers.root().optional_section("dds")), ConfigError);
 
+  // The interface and the peers go into Cyclone's XML as they are: checked first.
+  auto lan_with = [](const std::string& iface, const std::string& peers) {
+    auto d = ConfigDocument::parse("[dds]\nprofile = \"lan\"\ninterface = \"" + iface + "\"\npeers = [" + peers + "]\n", "p.toml");
+    return profile_from_config(d.root().optional_section("dds"));
+  };
+  EXPECT_NO_THROW(lan_with("veth-r1.0", "\"10.0.0.1\", \"fd00::2\", \"[fd00::3]\", \"base.fleet.lan\""));
+  for (const char* iface : {"", "eth0\\\"/><x", "an-interface-name", "eth 0", "..", "eth0:1"})
+    EXPECT_THROW(lan_with(iface, "\"10.0.0.1\""), ConfigError) << iface;
+  for (const char* peers : {"\"239.255.0.1\"", "\"ff02::1\"", "\"0.0.0.0\"", "\"10.0.0.1:7400\"", "\"10.0.0.1\", \"10.0.0.1\"",
+                            "\"\"", "\"a..b\"", "\"host/x\"", "\"[10.0.0.1]\"", "\"a b\""})
+    EXPECT_THROW(lan_with("eth0", peers), ConfigError) << peers;
+  EXPECT_EQ(lan_peer_problem("239.1.2.3"), "239.1.2.3 is a multicast address: peers are unicast");
+  EXPECT_THROW(lan_profile("eth0", {}), std::invalid_argument);
+
   // No [dds] section: CYCLONEDDS_URI if set (ctest sets it to the loopback file), else loopback.
   const char* env = std::getenv("CYCLONEDDS_URI");
   const DdsProfile dflt = profile_from_config(std::nullopt);
