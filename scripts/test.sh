@@ -31,8 +31,8 @@ if ((quick == 0)); then
   scripts/build.sh tsan
   stage "unit and integration tests under TSan"
   TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1" ctest --preset tsan -j2 -LE 'bench|slow|packaging|layers|single-threaded'
-  stage "fuzz targets (clang libFuzzer + ASan/UBSan), 15 s each (longer: scripts/fuzz.sh SECONDS)"
-  scripts/fuzz.sh 15
+  stage "fuzz targets (clang libFuzzer + ASan/UBSan), 8 s each, two at a time (longer: scripts/fuzz.sh SECONDS)"
+  scripts/fuzz.sh 8
   stage "cross-build the robot side for aarch64 (-Werror); its tests and package under qemu-user"
   scripts/build-cross.sh aarch64 --test
   stage "cross-build the robot side for armhf (-Werror, sysroot); its tests and package under qemu-user"
