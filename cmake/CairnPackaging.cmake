@@ -1,6 +1,6 @@
 # Debian packages per architecture (CPack DEB, one package per component):
 #   cairn-robot  cairn-robot, cairn-lms-probe, /etc/cairn/robot.toml, the systemd unit,
-#                the udev rule template for the laser's serial adapter
+#                the udev rule template for the laser's serial adapter, a sysctl.d file
 #   cairn-base   cairn-base, cairn-eval, /etc/cairn/base.toml, the systemd unit  (host builds)
 #   cairn-hil    cairn-hil, the worlds and the robot template                      (host builds)
 # Built by scripts/package.sh; the architecture is the toolchain's (CAIRN_DEB_ARCH) or the host's.
@@ -17,6 +17,8 @@ install(FILES config/robot.toml DESTINATION /etc/cairn COMPONENT robot)
 install(FILES config/dds/lan.xml config/dds/loopback.xml DESTINATION share/cairn/dds COMPONENT robot)
 install(FILES ${cairn_pkg}/robot/cairn-robot.service DESTINATION /lib/systemd/system COMPONENT robot)
 install(FILES ${cairn_pkg}/robot/99-cairn-lms.rules DESTINATION share/cairn/udev COMPONENT robot)
+# The network's ARP queue per neighbour (packaging/sysctl/cairn-network.conf says why).
+install(FILES ${cairn_pkg}/sysctl/cairn-network.conf DESTINATION /usr/lib/sysctl.d RENAME 60-cairn-robot.conf COMPONENT robot)
 install(FILES docs/firmware.md docs/config.md docs/lms2xx.md docs/canopen.md docs/modbus.md docs/dds.md
         DESTINATION share/doc/cairn-robot COMPONENT robot)
 set(CPACK_COMPONENTS_ALL robot)
@@ -34,6 +36,7 @@ if(CAIRN_HOST_ONLY_PARTS)
   endif()
   install(FILES config/base.toml DESTINATION /etc/cairn COMPONENT base)
   install(FILES ${cairn_pkg}/base/cairn-base.service DESTINATION /lib/systemd/system COMPONENT base)
+  install(FILES ${cairn_pkg}/sysctl/cairn-network.conf DESTINATION /usr/lib/sysctl.d RENAME 60-cairn-base.conf COMPONENT base)
   install(FILES docs/ccml.md docs/mapper.md docs/config.md docs/dds.md DESTINATION share/doc/cairn-base COMPONENT base)
 
   install(TARGETS cairn-hil RUNTIME DESTINATION bin COMPONENT hil)

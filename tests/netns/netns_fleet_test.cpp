@@ -151,6 +151,17 @@ class NetNs {
   pid_t pid_ = -1;
 };
 
+// The ARP queue per neighbour the cairn-robot and cairn-base packages set
+// (packaging/sysctl/cairn-network.conf, the one place it is written down).
+int packaged_unres_qlen_bytes() {
+  std::ifstream in(kSrc + "/packaging/sysctl/cairn-network.conf");
+  for (std::string line; std::getline(in, line);) {
+    const std::string key = "net.ipv4.neigh.default.unres_qlen_bytes = ";
+    if (line.rfind(key, 0) == 0) return std::stoi(line.substr(key.size()));
+  }
+  throw std::runtime_error("packaging/sysctl/cairn-network.conf sets no net.ipv4.neigh.default.unres_qlen_bytes");
+}
+
 // The network: a bridge in the switch namespace; each member's eth0 is one end of a veth
 // pair whose other end (port p-NAME) is on the bridge. Made inside the switch namespace:
 // no link ever appears in the machine's own namespace.
@@ -174,6 +185,12 @@ struct Network {
     ns.ip("link set lo up");
     ns.ip("addr add " + addr + "/24 dev eth0");
     ns.ip("link set eth0 up");
+    // What the packages' sysctl.d file sets on a robot and a base (systemd's udev rule
+    // applies it to each new interface): without it a cut-off robot's DDS sends block.
+    const std::string path = "/proc/sys/net/ipv4/neigh/eth0/unres_qlen_bytes";
+    std::string out;
+    if (sh(ns.enter() + " sh -c 'echo " + std::to_string(packaged_unres_qlen_bytes()) + " > " + path + "'", &out) != 0)
+      throw std::runtime_error("cannot set " + path + " in " + ns.name() + ": " + out);
   }
   // The member's cable at the switch: down = out of reach.
   void port(const std::string& p, bool up) const { sw.ip("link set " + p + (up ? " up" : " down")); }
@@ -444,12 +461,14 @@ void NetnsFleet::run_fleet(const std::string& profile) {
     EXPECT_GE(f.stop_s[0], kLinkTimeoutS - 0.4);
     EXPECT_LE(f.stop_s[0], kLinkTimeoutS + 1.0);
     EXPECT_LE(f.lost_s, 1.5 + 1.0);  // [status] liveliness_lease_s of config/robot-hil.toml
-    // Known (docs/dds.md): with the base unreachable the robot's DDS sends queue behind
-    // unresolved ARP until its socket buffer is full, and dds_write blocks its main thread
-    // in sendmsg; the RT loop then stops it for "no velocity command" before the link
-    // timeout. Printed, not yet asserted: the fix is the next step.
+    // The robot's main thread goes on (commands, status) while its peers are gone: its first
+    // stop is the lost link. With Debian's default ARP queue per neighbour (212992 bytes, the
+    // socket's whole buffer) its DDS sends blocked in sendmsg behind unresolved ARP, and it
+    // stopped first for "no velocity command" 1.6 s after the cut (docs/dds.md).
     std::printf("[%s] b: robot 2's first stop after the cut: '%s' after %.2f s\n", profile.c_str(), first_stop_line.c_str(),
                 first_stop.value_or(-1));
+    EXPECT_NE(first_stop_line.find("stop: base-station link lost"), std::string::npos)
+        << "robot 2 stopped for something else first (a blocked main thread?): " << first_stop_line;
     // It stands: the bench's odometer (reports every 0.5 s) from the second report after
     // the stop (braking done) to the fourth.
     const std::string report2 = "cairn-hil: robot 2 at ";

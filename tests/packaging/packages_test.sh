@@ -30,6 +30,7 @@ expect() {
 }
 expect cairn-robot /usr/bin/cairn-robot /usr/bin/cairn-lms-probe /etc/cairn/robot.toml \
   /lib/systemd/system/cairn-robot.service /usr/share/cairn/udev/99-cairn-lms.rules /usr/share/cairn/dds/lan.xml \
+  /usr/lib/sysctl.d/60-cairn-robot.conf \
   /usr/share/doc/cairn-robot/firmware.md
 robot_deb=$(echo "$work"/out/cairn-robot_*_"$arch".deb)
 dpkg-deb -f "$robot_deb" Depends | grep -q libddsc0debian || fail "cairn-robot does not depend on Cyclone DDS"
@@ -53,7 +54,7 @@ if command -v systemd-analyze >/dev/null; then
 fi
 if grep -q CAIRN_HOST_ONLY_PARTS:BOOL=ON "$build/CMakeCache.txt"; then
   expect cairn-base /usr/bin/cairn-base /usr/bin/cairn-eval /usr/bin/cairn-map-quality /usr/share/doc/cairn-base/mapper.md \
-    /etc/cairn/base.toml /lib/systemd/system/cairn-base.service
+    /etc/cairn/base.toml /lib/systemd/system/cairn-base.service /usr/lib/sysctl.d/60-cairn-base.conf
   base_deb=$(echo "$work"/out/cairn-base_*_"$arch".deb)
   dpkg-deb -f "$base_deb" Depends | grep -q libpng16 || fail "cairn-base does not depend on libpng (the map PNG export)"
   expect cairn-hil /usr/bin/cairn-hil /usr/share/cairn/worlds/office.world /usr/share/cairn/hil/robot-hil.toml
