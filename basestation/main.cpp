@@ -250,7 +250,7 @@ int run(const std::string& config_path, double duration_s) {
     stop_writer.emplace(pp, *stop_topic, dds::state_qos(4));  // volatile, as the robots read it
   }
   std::map<std::uint64_t, base::WebCommand> reset_commands;  // by command id, while under way
-  std::uint64_t web_map_version = 0;
+  base::WebMapTiles web_tiles;  // the map for the page, in tiles sent where they changed
   base::FoxgloveChannels foxglove;  // the same state and map for Foxglove clients (docs/web-view.md)
 
   const Nanos end = duration_s > 0 ? start + seconds_to_nanos(duration_s) : 0;
@@ -302,7 +302,7 @@ int run(const std::string& config_path, double duration_s) {
       }
       if (map && now >= next_web_map) {
         next_web_map = now + cfg.web.map_period;
-        web->publish_map(std::make_shared<const std::string>(base::WebState::map_json(map->mapper().classified(), ++web_map_version)));
+        web->publish_map(web_tiles.update(map->mapper().classified()));
         foxglove.set_map(map->mapper().classified(), wall_clock_ns());
       }
       if (now >= next_web_state) {

@@ -154,9 +154,9 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   void push_latest() {
     if (writing_ || !outbox_.empty()) return;
     const Impl::Latest l = server_->latest();
-    if (l.map && l.map_version != sent_map_) {
-      sent_map_ = l.map_version;
-      outbox_.push_back(l.map);
+    if (l.map && l.map->version != sent_map_) {  // the tiles this socket has not seen
+      outbox_.push_back(std::make_shared<const std::string>(l.map->message_since(sent_map_)));
+      sent_map_ = l.map->version;
     }
     if (l.state && l.state_version != sent_state_) {
       sent_state_ = l.state_version;
@@ -270,8 +270,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     if (get && (p == "/" || p == "/index.html")) return reply(req, http::status::ok, server_->page, "text/html; charset=utf-8");
     if (get && (p == "/api/state" || p == "/api/map")) {
       const Impl::Latest l = server_->latest();
-      const auto& doc = p == "/api/state" ? l.state : l.map;
-      return reply(req, http::status::ok, doc ? *doc : "{}", "application/json");
+      std::string doc = p == "/api/state" ? (l.state ? *l.state : "{}") : (l.map ? l.map->message_since(0) : "{}");
+      return reply(req, http::status::ok, std::move(doc), "application/json");
     }
     if (p == "/api/command") {
       if (req.method() != http::verb::post) return reply(req, http::status::method_not_allowed, "POST a command\n", "text/plain");
@@ -356,10 +356,9 @@ void WebServer::publish_state(std::shared_ptr<const std::string> json) {
   ++impl_->state_version;
 }
 
-void WebServer::publish_map(std::shared_ptr<const std::string> json) {
+void WebServer::publish_map(std::shared_ptr<const WebMapSnapshot> map) {
   const std::lock_guard lock(impl_->mu);
-  impl_->map = std::move(json);
-  ++impl_->map_version;
+  impl_->map = std::move(map);
 }
 
 void WebServer::publish_foxglove(std::shared_ptr<const FoxgloveSnapshot> snapshot) {

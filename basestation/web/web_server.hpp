@@ -19,6 +19,7 @@
 
 #include "basestation/web/foxglove_snapshot.hpp"
 #include "basestation/web/web_command.hpp"
+#include "basestation/web/web_map_tiles.hpp"
 
 namespace cairn::base {
 
@@ -60,7 +61,7 @@ class WebServer {
   /// The live state (JSON text, pushed to every socket and served at /api/state).
   void publish_state(std::shared_ptr<const std::string> json);
   /// The map (JSON text with the PNG inside), pushed when it changes and on connect.
-  void publish_map(std::shared_ptr<const std::string> json);
+  void publish_map(std::shared_ptr<const WebMapSnapshot> map);
   /// The Foxglove channels and their latest messages (foxglove_channels.hpp builds them).
   void publish_foxglove(std::shared_ptr<const FoxgloveSnapshot> snapshot);
   /// The commands received since the last call, oldest first.

@@ -30,8 +30,9 @@ struct WebServer::Impl {
   int connections = 0;  // io thread only (and the destructor, after the thread)
 
   std::mutex mu;
-  std::shared_ptr<const std::string> state, map;  // under mu
-  std::uint64_t state_version = 0, map_version = 0;  // under mu
+  std::shared_ptr<const std::string> state;  // under mu
+  std::shared_ptr<const WebMapSnapshot> map;  // under mu
+  std::uint64_t state_version = 0;            // under mu
   std::shared_ptr<const FoxgloveSnapshot> foxglove;  // under mu
   std::deque<QueuedWebCommand> commands;  // under mu
   std::uint64_t next_command_id = 1;      // under mu
@@ -40,12 +41,13 @@ struct WebServer::Impl {
   boost::asio::ip::tcp::acceptor acceptor{ioc};
 
   struct Latest {
-    std::shared_ptr<const std::string> state, map;
-    std::uint64_t state_version = 0, map_version = 0;
+    std::shared_ptr<const std::string> state;
+    std::shared_ptr<const WebMapSnapshot> map;
+    std::uint64_t state_version = 0;
   };
   Latest latest() {
     const std::lock_guard lock(mu);
-    return {state, map, state_version, map_version};
+    return {state, map, state_version};
   }
   std::shared_ptr<const FoxgloveSnapshot> latest_foxglove() {
     const std::lock_guard lock(mu);

@@ -190,31 +190,4 @@ std::string WebState::state_json(Nanos now, const Fleet& fleet, const Fusion* fu
       .dump();
 }
 
-std::string WebState::map_json(const ClassGrid& grid, std::uint64_t version) {
-  mapper::PngOptions png;
-  png.pixels_per_cell = 1;  // the page scales it; one pixel per cell keeps the message small
-  const GridGeometry& g = grid.geometry;
-  json frontier = json::array();
-  std::size_t frontier_total = 0;
-  const auto unknown = [&](int i, int j) { return i >= 0 && j >= 0 && i < g.width && j < g.height && grid.at(i, j) == Cell::kUnknown; };
-  for (int j = 0; j < g.height; ++j) {
-    for (int i = 0; i < g.width; ++i) {
-      if (grid.at(i, j) != Cell::kClear) continue;
-      if (!unknown(i - 1, j) && !unknown(i + 1, j) && !unknown(i, j - 1) && !unknown(i, j + 1)) continue;
-      if (++frontier_total <= kWebMaxFrontierCells) frontier.push_back(g.index(i, j));
-    }
-  }
-  return json{{"type", "map"},
-              {"version", version},
-              {"origin_x", g.origin_x},
-              {"origin_y", g.origin_y},
-              {"resolution", g.resolution},
-              {"width", g.width},
-              {"height", g.height},
-              {"png", base64(mapper::render_png(grid, {}, {}, png))},
-              {"frontier", std::move(frontier)},
-              {"frontier_total", frontier_total}}
-      .dump();
-}
-
 }  // namespace cairn::base

@@ -1,9 +1,8 @@
 // What the web view shows, as JSON text built on the base's main loop from its own state
 // (fleet, fusion, explore, map): the live state (robots with pose, 3σ ellipse, bounded
 // trail, panel fields with the RT loop's figures, task with its information-gain region,
-// latest bid; landmarks with ellipses; the exploration's state; recent command results) and
-// the map (the classified grid as a PNG from mapper::render_png, base64, with its geometry,
-// and its frontier cells).
+// latest bid; landmarks with ellipses; the exploration's state; recent command results).
+// The map goes in tiles (web_map_tiles.hpp).
 // The text is handed to WebServer as an immutable snapshot.
 #pragma once
 
@@ -43,7 +42,6 @@ inline constexpr std::size_t kWebTrailPoints = 400;      // per robot: older poi
 inline constexpr double kWebTrailStepM = 0.05;           // a point when the robot moved this far
 inline constexpr std::size_t kWebMaxLandmarks = 1000;    // beyond: counted, not sent
 inline constexpr std::size_t kWebCommandHistory = 10;    // results kept for the page
-inline constexpr std::size_t kWebMaxFrontierCells = 20000;  // beyond: counted, not sent
 inline constexpr std::size_t kWebMaxGivenUp = 100;       // given-up frontier spots sent
 
 class WebState {
@@ -55,11 +53,6 @@ class WebState {
   /// Samples the trails and returns the state JSON. `explore` (the exploration executive's
   /// allocator) may be null: no exploration.
   std::string state_json(Nanos now, const Fleet& fleet, const Fusion* fusion, const explore::TaskAllocator* explore);
-  /// The map message: {"type": "map", "version", "origin_x", "origin_y", "resolution",
-  /// "width", "height", "png": base64, "frontier": [cell index, ...], "frontier_total"};
-  /// obstacle black, clear white, unknown grey; a frontier cell is a clear one beside an
-  /// unknown one (4-neighbours), index j * width + i, at most kWebMaxFrontierCells sent.
-  static std::string map_json(const ClassGrid& grid, std::uint64_t version);
 
  private:
   struct Result {

@@ -2,6 +2,7 @@
 // status panel fields with the RT loop's, a bounded trail, the task with its region and the
 // latest bid; the exploration's state; the command results kept; the map's geometry, PNG
 // (base64) as mapper::render_png makes it, and frontier cells.
+#include "basestation/web/web_map_tiles.hpp"
 #include "basestation/web/web_state.hpp"
 
 #include <gtest/gtest.h>
@@ -165,7 +166,8 @@ TEST(WebState, FrontierCellsAreClearCellsBesideUnknownOnes) {
   g.at(3, 2) = Cell::kUnknown;   // its neighbours (2, 2) and (3, 1) are frontier
   g.at(0, 0) = Cell::kObstacle;
   g.at(1, 1) = Cell::kUnknown;   // (1, 0), (0, 1), (2, 1), (1, 2)
-  const json j = json::parse(WebState::map_json(g, 1));
+  WebMapTiles tiles;
+  const json j = json::parse(tiles.update(g)->message_since(0));
   std::vector<int> cells = j["frontier"].get<std::vector<int>>();
   std::sort(cells.begin(), cells.end());
   EXPECT_EQ(cells, (std::vector<int>{1, 4, 6, 7, 9, 10}));  // j * 4 + i
@@ -182,6 +184,48 @@ TEST(WebState, Base64MatchesTheStandardVectors) {
   EXPECT_EQ(base64({0xff, 0xfe, 0x00}), "//4A");
 }
 
+// Tiles of 64 x 64 cells, each with the version it last changed in: a socket that saw
+// version v gets only the newer tiles; the same map again is the same snapshot; a new
+// geometry sends everything again ("full").
+TEST(WebMapTiles, OnlyTheTilesThatChangedGoAgain) {
+  ClassGrid g;
+  g.geometry.resolution = 0.15;
+  g.geometry.width = 70;  // two tiles across: 64 + 6 cells
+  g.geometry.height = 130;  // three up: 64 + 64 + 2
+  g.cells.assign(70 * 130, Cell::kUnknown);
+  WebMapTiles tiles;
+  const auto first = tiles.update(g);
+  json j = json::parse(first->message_since(0));
+  EXPECT_EQ(j["version"], 1);
+  EXPECT_EQ(j["tile"], kWebTileCells);
+  ASSERT_EQ(j["tiles"].size(), 6u);
+  EXPECT_EQ(tiles.tiles_encoded(), 6u);
+  EXPECT_EQ(tiles.update(g), first) << "an unchanged map is the same snapshot";
+  EXPECT_EQ(tiles.tiles_encoded(), 6u);
+  g.at(66, 129) = Cell::kObstacle;  // in tile (1, 2), the 6 x 2 corner
+  const auto second = tiles.update(g);
+  EXPECT_EQ(second->version, 2u);
+  j = json::parse(second->message_since(1));
+  EXPECT_EQ(j["full"], false);
+  ASSERT_EQ(j["tiles"].size(), 1u);
+  EXPECT_EQ(j["tiles"][0]["tx"], 1);
+  EXPECT_EQ(j["tiles"][0]["ty"], 2);
+  EXPECT_EQ(json::parse(second->message_since(2))["tiles"].size(), 0u);
+  EXPECT_EQ(json::parse(second->message_since(0))["tiles"].size(), 6u) << "a new socket gets them all";
+  EXPECT_EQ(tiles.tiles_encoded(), 7u);
+  // The frontier rides along: a clear cell beside unknown ones.
+  g.at(0, 0) = Cell::kClear;
+  j = json::parse(tiles.update(g)->message_since(2));
+  EXPECT_EQ(j["frontier"], json::array({0}));
+  // A new geometry (the mapper grew the map): every tile again, marked full.
+  g.geometry.origin_x = -1.0;
+  const auto moved = tiles.update(g);
+  j = json::parse(moved->message_since(3));
+  EXPECT_EQ(j["full"], true);
+  EXPECT_EQ(j["tiles"].size(), 6u);
+  EXPECT_EQ(j["origin_x"], -1.0);
+}
+
 TEST(WebState, TheMapIsAPngOfOnePixelPerCellWithItsGeometry) {
   ClassGrid g;
   g.geometry.origin_x = -1.0;
@@ -192,15 +236,19 @@ TEST(WebState, TheMapIsAPngOfOnePixelPerCellWithItsGeometry) {
   g.cells.assign(6, Cell::kUnknown);
   g.at(0, 0) = Cell::kObstacle;  // lower-left: the image's bottom-left pixel
   g.at(2, 1) = Cell::kClear;     // upper-right: its top-right pixel
-  const json j = json::parse(WebState::map_json(g, 9));
+  WebMapTiles tiles;
+  const json j = json::parse(tiles.update(g)->message_since(0));
   EXPECT_EQ(j["type"], "map");
-  EXPECT_EQ(j["version"], 9);
+  EXPECT_EQ(j["version"], 1);
+  EXPECT_EQ(j["full"], true);
+  ASSERT_EQ(j["tiles"].size(), 1u);  // 3 x 2 cells: one tile
+  EXPECT_EQ(j["tiles"][0]["tx"], 0);
   EXPECT_EQ(j["origin_x"], -1.0);
   EXPECT_EQ(j["resolution"], 0.5);
   EXPECT_EQ(j["width"], 3);
   EXPECT_EQ(j["height"], 2);
   // Decode the base64 and the PNG.
-  const std::string text = j["png"];
+  const std::string text = j["tiles"][0]["png"];
   std::vector<std::uint8_t> bytes;
   std::uint32_t acc = 0;
   int bits = 0;

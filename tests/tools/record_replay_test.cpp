@@ -101,7 +101,7 @@ TEST(RecordReplay, ReplayIntoAFreshBaseReproducesItsLandmarks) {
   EXPECT_EQ(count_on(c, "cairn_odometry"), static_cast<std::size_t>(kRobots * kSteps));
   EXPECT_EQ(count_on(c, "cairn_features"), static_cast<std::size_t>(kRobots * kSteps / 2));
   EXPECT_GT(count_on(c, "cairn_feature_map"), 0u);  // the base's own output is recorded too
-  EXPECT_EQ(c.channels.size(), 11u);
+  EXPECT_EQ(c.channels.size(), 12u);  // every Cairn topic
   std::ifstream idl(std::string(CAIRN_SOURCE_DIR_STR) + "/common/idl/cairn.idl");
   const std::string idl_text{std::istreambuf_iterator<char>(idl), std::istreambuf_iterator<char>()};
   for (const auto& [id, ch] : c.channels) {
@@ -152,6 +152,72 @@ TEST(RecordReplay, ReplayIntoAFreshBaseReproducesItsLandmarks) {
     worst = std::max(worst, best);
   }
   std::printf("%zu landmarks, worst Mahalanobis distance live vs replayed %.2f\n", live.size(), worst);
+  fs::remove_all(dir);
+}
+
+// The occupancy map too: two fake robots driving circles in a walled room publish status,
+// odometry and ray-cast scans (cairn-test-room-robots) to a base with its mapper on; the
+// recording of that run, replayed at 1x into a fresh base, rebuilds the same map.
+TEST(RecordReplay, ReplayedScansRebuildTheLiveBasesMap) {
+  const fs::path dir = fs::temp_directory_path() / ("cairn-record-replay-map-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const int domain = 30 + static_cast<int>((getpid() + 31) % 60);
+  const std::string d = std::to_string(domain);
+  const auto config = [&](const std::string& name) {
+    const std::string path = (dir / (name + ".toml")).string();
+    std::ofstream(path) << "[dds]\nprofile = \"loopback\"\ndomain = " << domain << "\n[fleet]\ntable_period_s = 0.5\n"
+                        << "[fusion]\nstate_dir = \"" << (dir / (name + "-state")).string() << "\"\n"
+                        << "[mapper]\norigin = [-6.0, -5.0]\nsize_m = [12.0, 10.0]\nmax_range_m = 12.0\n"
+                        << "export_dir = \"" << (dir / (name + "-map")).string() << "\"\n"
+                        // The room robots' starts (tests/support/room_robots_main.cpp).
+                        << "[[robot]]\nid = 1\ninitial_pose = [-1.5, 0.0, 0.0]\ninitial_sigma = [0.01, 0.01, 0.005]\n"
+                        << "[[robot]]\nid = 2\ninitial_pose = [1.5, 0.0, 3.141592653589793]\ninitial_sigma = [0.01, 0.01, 0.005]\n";
+    return path;
+  };
+  const std::string recording = (dir / "room.mcap").string();
+  Subprocess base1({CAIRN_BASE_BIN, "--config", config("base1")});
+  Subprocess rec({CAIRN_RECORD_BIN, "--domain", d, "-o", recording});
+  ASSERT_TRUE(base1.wait_for_text("fusion: state in", slack(5s))) << base1.output();
+  ASSERT_TRUE(rec.wait_for_text("record: recording", slack(5s))) << rec.output();
+  Subprocess robots({CAIRN_ROOM_ROBOTS_BIN, "--domain", d, "--duration", "4"});
+  ASSERT_EQ(robots.wait(slack(15s)), 0) << robots.output();
+  rec.signal(SIGINT);
+  ASSERT_EQ(rec.wait(slack(5s)), 0) << rec.output();
+  const mcap::File file(recording);
+  const std::size_t scans = count_on(file.contents(), "cairn_laser_scan");
+  ASSERT_GE(scans, 30u);  // two robots at 5 Hz for 4 s
+  const std::string all_scans = "map: scans " + std::to_string(scans) + " taken";
+  ASSERT_TRUE(base1.wait_for_text(all_scans, slack(5s))) << base1.output();
+  base1.signal(SIGTERM);
+  ASSERT_EQ(base1.wait(slack(10s)), 0) << base1.output();
+
+  Subprocess base2({CAIRN_BASE_BIN, "--config", config("base2")});
+  ASSERT_TRUE(base2.wait_for_text("fusion: state in", slack(5s))) << base2.output();
+  Subprocess replay({CAIRN_REPLAY_BIN, recording, "--domain", d, "--rate", "1", "--topics",
+                     "cairn_robot_status,cairn_odometry,cairn_laser_scan", "--readers", "1"});
+  ASSERT_EQ(replay.wait(slack(20s)), 0) << replay.output();
+  ASSERT_TRUE(base2.wait_for_text(all_scans, slack(5s))) << base2.output();
+  base2.signal(SIGTERM);
+  ASSERT_EQ(base2.wait(slack(10s)), 0) << base2.output();
+
+  // Cell for cell: the same geometry, and the known cells of the live map classified alike.
+  const mapper::ClassGrid live = mapper::read_map_server((dir / "base1-map" / "map.yaml").string());
+  const mapper::ClassGrid again = mapper::read_map_server((dir / "base2-map" / "map.yaml").string());
+  ASSERT_EQ(live.cells.size(), again.cells.size());
+  std::size_t known = 0, same = 0, known_again = 0;
+  for (std::size_t i = 0; i < live.cells.size(); ++i) {
+    known_again += again.cells[i] != Cell::kUnknown;
+    if (live.cells[i] == Cell::kUnknown) continue;
+    ++known;
+    same += again.cells[i] == live.cells[i];
+  }
+  const double agreement = static_cast<double>(same) / static_cast<double>(known);
+  std::printf("map: %zu scans; %zu known cells live, %zu replayed; %.2f %% of the live ones alike\n", scans, known, known_again,
+              100 * agreement);
+  ASSERT_GT(known, 1000u);  // the room's 8 x 6 m at 15 cm: about 2100 cells inside
+  EXPECT_GE(agreement, 0.99);
+  EXPECT_NEAR(static_cast<double>(known_again), static_cast<double>(known), 0.01 * static_cast<double>(known));
   fs::remove_all(dir);
 }
 

@@ -11,7 +11,7 @@ const colours = ["#dc1e1e", "#1e5adc", "#14a028", "#c87800", "#9628b4", "#00a0aa
 const colour = (id) => colours[(Math.max(id, 1) - 1) % colours.length];
 
 // What the tests read: the latest messages, counts, and the view's transform.
-const view = { state: null, map: null, image: null, counts: { state: 0, map: 0, reply: 0 }, lastReply: null };
+const view = { state: null, map: null, image: null, counts: { state: 0, map: 0, tiles: 0, reply: 0 }, lastReply: null };
 window.cairnView = view;
 
 // The map fills the canvas, keeping its aspect; world y grows up, canvas y down.
@@ -204,6 +204,31 @@ function panel() {
     `${s.landmarks_total} landmark(s)` + (s.landmarks_total > s.landmarks.length ? `, ${s.landmarks.length} shown` : "");
 }
 
+// The map arrives in tiles (docs/web-view.md): each message carries the geometry, the frontier
+// and the tiles that changed since this socket's last one ("full": all of them, a new image).
+// The tiles are painted into an off-screen canvas of one pixel per cell, which draw() scales.
+view.mapChain = Promise.resolve();
+function applyTiles(msg) {
+  const m = view.map;
+  if (msg.full || !view.image || !m || m.width !== msg.width || m.height !== msg.height) {
+    const c = document.createElement("canvas");
+    c.width = msg.width; c.height = msg.height;
+    view.image = c;
+  }
+  const tctx = view.image.getContext("2d");
+  const loads = msg.tiles.map((t) => new Promise((done) => {
+    const img = new Image();
+    img.onload = () => { tctx.drawImage(img, t.tx * msg.tile, msg.height - t.ty * msg.tile - img.height); done(); };
+    img.onerror = () => done();
+    img.src = "data:image/png;base64," + t.png;
+  }));
+  return Promise.all(loads).then(() => {
+    delete msg.tiles;  // painted: keep the geometry and the frontier
+    view.map = msg; view.counts.map++; view.counts.tiles = (view.counts.tiles || 0) + loads.length;
+    draw();
+  });
+}
+
 function connect() {
   const scheme = location.protocol === "https:" ? "wss" : "ws";
   const ws = new WebSocket(`${scheme}://${location.host}/ws?token=${encodeURIComponent(token)}`);
@@ -213,9 +238,7 @@ function connect() {
   ws.onmessage = (ev) => {
     const msg = JSON.parse(ev.data);
     if (msg.type === "map") {
-      const img = new Image();
-      img.onload = () => { view.map = msg; view.image = img; view.counts.map++; draw(); };
-      img.src = "data:image/png;base64," + msg.png;
+      view.mapChain = view.mapChain.then(() => applyTiles(msg));  // in order: tiles decode asynchronously
     } else if (msg.type === "state") {
       view.state = msg; view.counts.state++;
       panel(); draw();
