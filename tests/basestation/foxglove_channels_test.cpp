@@ -7,29 +7,14 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "tests/support/localised_fusion.hpp"
+
 namespace cairn::base {
 namespace {
 
 using nlohmann::json;
 
-Fusion localised_fusion() {
-  FusionConfig cfg;
-  RobotPrior p;
-  p.known = true;
-  p.pose = {1.0, 2.0, 0.5};
-  p.sigma = Vec3(0.1, 0.2, 0.01);  // the 3σ ellipse: semi-axes 0.6 (along y) and 0.3 m
-  cfg.robots[1] = p;
-  Fusion f(cfg);
-  msg::OdometryIncrement o;
-  o.robot_id = 1;
-  o.seq = 1;
-  o.t0 = 0;
-  o.t1 = 10 * kNanosPerMilli;
-  o.delta_cov = {1e-12, 0, 0, 0, 1e-12, 0, 0, 0, 1e-12};
-  o.boot_epoch = 7;
-  EXPECT_EQ(f.on_odometry(o), Fusion::Result::kApplied);
-  return f;
-}
+Fusion localised_fusion() { return testing::localised_fusion(0.5); }
 
 TEST(FoxgloveChannels, TheChannelsAndAPoseTopicPerLocalisedRobot) {
   Fleet fleet(3 * kNanosPerSecond, nullptr, {});
