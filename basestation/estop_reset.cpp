@@ -62,6 +62,10 @@ void EstopResetNode::on_status(dds_entity_t reader, const cairn_RobotStatus& s, 
   dds_guid_t p{};
   if (!publisher_participant(reader, info.publication_handle, &p)) return;
   it->second.participant = p;
+  if (!it->second.stops_known) {
+    it->second.stops_known = true;
+    it->second.remote_stops = s.remote_stops;
+  }
   it->second.machine.on_status(now, s.robot_id, static_cast<StopReason>(s.stop_reason),
                                std::string_view(s.stop_text, strnlen(s.stop_text, sizeof s.stop_text)));
 }
@@ -89,6 +93,7 @@ std::vector<std::pair<std::uint64_t, EstopResetResult>> EstopResetNode::poll(Nan
         r.seq = e.step.seq;
         r.issued_ns = now;
         dds::set_text(r.issued_by, e.machine.request().issued_by);
+        r.remote_stops_seen = e.remote_stops;
         if (writer_.write(r)) {
           e.machine.on_sent(now);
         } else {
@@ -106,6 +111,18 @@ std::vector<std::pair<std::uint64_t, EstopResetResult>> EstopResetNode::poll(Nan
     }
   }
   return done;
+}
+
+std::vector<std::pair<std::uint64_t, EstopResetResult>> EstopResetNode::cancel_all(const std::string& why) {
+  std::vector<std::pair<std::uint64_t, EstopResetResult>> out;
+  for (auto& [robot, e] : running_) {
+    EstopResetResult r = e.machine.result();
+    r.outcome = EstopResetOutcome::kUnconfirmed;
+    r.message = "robot " + std::to_string(robot) + ": " + why;
+    out.emplace_back(e.id, std::move(r));
+  }
+  running_.clear();
+  return out;
 }
 
 EstopResetResult reset_estop(const dds::Participant& pp, const EstopResetRequest& req) {

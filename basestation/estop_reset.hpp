@@ -36,6 +36,9 @@ class EstopResetNode {
   void on_status(dds_entity_t reader, const cairn_RobotStatus& s, const dds_sample_info_t& info, Nanos now);
   /// Advances every exchange at `now` (never waits); returns those that ended, with their ids.
   std::vector<std::pair<std::uint64_t, EstopResetResult>> poll(Nanos now);
+  /// Ends every exchange at once, nothing more sent (a remote e-stop was just sent: no reset
+  /// asked for before it may go out after it); returns them with `why` as their message.
+  std::vector<std::pair<std::uint64_t, EstopResetResult>> cancel_all(const std::string& why);
   bool idle() const { return running_.empty(); }
   /// Some exchange waits for its writer to match (poll again soon, not only on a status).
   bool matching() const;
@@ -46,6 +49,10 @@ class EstopResetNode {
     EstopResetMachine machine;
     dds_guid_t participant{};  // the one its robot's latest status came from
     EstopResetMachine::Step step;
+    // The robot's remote-stop count in the first status this exchange took: every reset it
+    // sends carries it, so the robot refuses them once a later remote e-stop latched it.
+    bool stops_known = false;
+    std::uint32_t remote_stops = 0;
   };
   std::size_t max_running_;
   dds::Topic<cairn_SafetyReset> topic_;

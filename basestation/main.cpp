@@ -134,7 +134,7 @@ std::string web_visit(const base::WebCommand& v, base::ExploreNode* explore, con
 // e-stop reset started (its result comes later, from the reset node's poll).
 std::string web_command(std::uint64_t id, const base::WebCommand& c, base::ExploreNode* explore, const base::FusionNode* fusion,
                         const base::GridMapNode* map, base::EstopResetNode& resets, dds::Writer<cairn_SafetyStop>& stop,
-                        std::uint32_t* stop_seq, Nanos now) {
+                        std::uint32_t* stop_seq, std::vector<std::pair<std::uint64_t, base::EstopResetResult>>* cancelled, Nanos now) {
   switch (c.kind) {
     case base::WebCommandKind::kVisit: return web_visit(c, explore, fusion, map, now);
     case base::WebCommandKind::kExplore:
@@ -151,6 +151,10 @@ std::string web_command(std::uint64_t id, const base::WebCommand& c, base::Explo
       return std::string(kResetUnderWay);
     }
     case base::WebCommandKind::kEstopAll: {
+      // No reset asked for before the stop may go out after it, and no robot is sent
+      // anywhere until the operator starts the exploration again.
+      for (const auto& [rid, r] : resets.cancel_all("cancelled by E-STOP ALL")) cancelled->emplace_back(rid, r);
+      if (explore) explore->set_running(false, now, "E-STOP ALL from the web view");
       // One sample for every robot (id 0): a robot the base has never heard of stops too.
       msg::SafetyStop m;
       m.robot_id = 0;
@@ -251,6 +255,7 @@ int run(const std::string& config_path, double duration_s) {
   }
   std::map<std::uint64_t, base::WebCommand> reset_commands;  // by command id, while under way
   base::WebMapTiles web_tiles;  // the map for the page, in tiles sent where they changed
+  std::uint64_t foxglove_map_version = 0;
   base::FoxgloveChannels foxglove;  // the same state and map for Foxglove clients (docs/web-view.md)
 
   const Nanos end = duration_s > 0 ? start + seconds_to_nanos(duration_s) : 0;
@@ -289,9 +294,17 @@ int run(const std::string& config_path, double duration_s) {
     }
     if (web) {
       for (const base::QueuedWebCommand& c : web->take_commands()) {
-        std::string result = web_command(c.id, c.command, explore.get(), fusion.get(), map.get(), *resets, *stop_writer, &stop_seq, now);
+        std::vector<std::pair<std::uint64_t, base::EstopResetResult>> cancelled;
+        std::string result =
+            web_command(c.id, c.command, explore.get(), fusion.get(), map.get(), *resets, *stop_writer, &stop_seq, &cancelled, now);
         if (result == kResetUnderWay) reset_commands.emplace(c.id, c.command);
         web_state.on_command_result(c.id, c.command, std::move(result));
+        for (const auto& [id, r] : cancelled) {
+          const auto it = reset_commands.find(id);
+          if (it == reset_commands.end()) continue;
+          web_state.on_command_result(id, it->second, "cancelled: " + r.message);
+          reset_commands.erase(it);
+        }
       }
       for (const auto& [id, result] : resets->poll(now)) {
         CAIRN_LOG_INFO("base", "web view e-stop reset: {}", result.message);
@@ -302,8 +315,12 @@ int run(const std::string& config_path, double duration_s) {
       }
       if (map && now >= next_web_map) {
         next_web_map = now + cfg.web.map_period;
-        web->publish_map(web_tiles.update(map->mapper().classified()));
-        foxglove.set_map(map->mapper().classified(), wall_clock_ns());
+        const auto tiles = web_tiles.update(map->mapper().classified());
+        web->publish_map(tiles);
+        if (tiles->version != foxglove_map_version) {  // Foxglove's grid goes whole: only when the map changed
+          foxglove_map_version = tiles->version;
+          foxglove.set_map(map->mapper().classified(), wall_clock_ns());
+        }
       }
       if (now >= next_web_state) {
         next_web_state = now + cfg.web.state_period;

@@ -176,6 +176,7 @@ struct SafetyReset {
   std::uint32_t seq = 0;
   Nanos issued = 0;
   std::array<char, 32> issued_by{};  // terminated
+  std::uint32_t remote_stops_seen = 0;  // the robot's remote-stop count the operator saw (RobotStatus.remote_stops)
 };
 
 /// An operator's remote e-stop (robot_id 0: every robot); the robot latches until a reset.

@@ -102,6 +102,7 @@ void RobotBridge::publish_status(Executive* exec, Nanos now) {
     } else {
       dds::set_text(s.stop_text, stop_reason_text(r.stop));
     }
+    s.remote_stops = r.remote_stops;
     s.local_pose = {r.local_pose.x, r.local_pose.y, r.local_pose.theta};
     s.loop_period_mean_us = r.period_mean_us;
     s.loop_period_p99_us = r.period_p99_us;
@@ -138,8 +139,12 @@ std::size_t RobotBridge::take_resets(Executive* exec) {
     if (m.robot_id != cfg_.id) return;
     ++n;
     ++counters_.resets;
+    if (exec && !exec->request_reset(m.remote_stops_seen)) {
+      CAIRN_LOG_WARN("bridge", "e-stop reset #{} by '{}' refused: asked before the latest remote e-stop (it saw {} of them)", m.seq,
+                     std::string_view(m.issued_by.data()), m.remote_stops_seen);
+      return;
+    }
     CAIRN_LOG_INFO("bridge", "e-stop reset #{} requested over DDS by '{}'", m.seq, std::string_view(m.issued_by.data()));
-    if (exec) exec->request_reset();
   });
   return n;
 }

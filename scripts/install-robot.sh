@@ -126,7 +126,8 @@ mkdir -p $r/var/log
 [[ -n "$dds_profile" ]] && remote_script+="
 \$SUDO install -D -m 0644 $stage/dds.xml $r/etc/cairn/dds.xml"
 [[ -n "$keys" ]] && remote_script+="
-\$SUDO sh -c $(shq "$(declare -f install_robot_keys)
+\$SUDO sh -c $(shq "set -e
+$(declare -f install_robot_keys)
 install_robot_keys $stage/keys '$r'")"
 [[ -n "$check_step" ]] && remote_script+="
 $check_step"

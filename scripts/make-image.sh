@@ -357,6 +357,7 @@ mcopy -i "$work/esp.img" "$work/BOOTAA64.EFI" ::/EFI/BOOT/BOOTAA64.EFI || die "m
 stage "disk image: GPT, ESP + root"
 rm -f "$out.partial"
 truncate -s "${size_mib}M" "$out.partial"
+[[ -z "$keys" ]] || chmod 600 "$out.partial"  # it holds the robot's private key
 sfdisk --quiet "$out.partial" <<EOF || die "sfdisk failed"
 label: gpt
 unit: sectors

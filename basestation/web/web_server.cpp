@@ -1,5 +1,6 @@
 #include "basestation/web/web_server.hpp"
 
+#include <algorithm>
 #include <utility>  // before Boost 1.74's asio, which uses std::exchange without it
 
 #include <boost/asio.hpp>
@@ -91,7 +92,14 @@ std::string WebServer::Impl::enqueue(std::string_view text) {
   std::uint64_t id = 0;
   {
     const std::lock_guard lock(mu);
-    if (commands.size() < kMaxQueuedCommands) {
+    // An E-STOP ALL is never refused for a full queue: it takes the one slot beyond the cap,
+    // and while one waits another is the same command (its id is the answer).
+    const bool estop = p.command->kind == WebCommandKind::kEstopAll;
+    const auto waiting = std::find_if(commands.begin(), commands.end(),
+                                      [](const QueuedWebCommand& c) { return c.command.kind == WebCommandKind::kEstopAll; });
+    if (estop && waiting != commands.end()) {
+      id = waiting->id;
+    } else if (commands.size() < kMaxQueuedCommands || estop) {
       id = next_command_id++;
       commands.push_back({id, *p.command});
     }

@@ -190,6 +190,7 @@ void to_dds(const msg::SafetyReset& m, cairn_SafetyReset* out) {
   out->seq = m.seq;
   out->issued_ns = m.issued;
   copy_text(m.issued_by.data(), m.issued_by.size(), out->issued_by, sizeof out->issued_by);
+  out->remote_stops_seen = m.remote_stops_seen;
 }
 
 void to_dds(const msg::SafetyStop& m, cairn_SafetyStop* out) {
@@ -213,6 +214,7 @@ bool from_dds(const cairn_SafetyReset& m, msg::SafetyReset* out) {
   out->seq = m.seq;
   out->issued = m.issued_ns;
   copy_text(m.issued_by, sizeof m.issued_by, out->issued_by.data(), out->issued_by.size());
+  out->remote_stops_seen = m.remote_stops_seen;
   return true;
 }
 

@@ -63,6 +63,15 @@ void Executive::stop() {
 
 void Executive::set_velocity(double v, double w, Nanos now) { velocity_.write({v, w, now}); }
 
+bool Executive::request_reset(std::uint32_t remote_stops_seen) {
+  if (remote_stops_seen < remote_stops_.load(std::memory_order_acquire)) {
+    resets_predating_.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  request_reset();
+  return true;
+}
+
 void Executive::request_remote_stop() {
   master_->request_estop();  // torque off now: no RT hop
   motor_power_want_.store(false, std::memory_order_release);
@@ -348,7 +357,12 @@ void Executive::control_cycle(Nanos now, double dt) {
     motor_power_want_.store(false, std::memory_order_release);
     CAIRN_LOG_WARN("safety", "latched: {}; drives disabled, motor power off until a reset", latch_cause_text(safety.latch_cause()));
   }
-  if (safety.reset_accepted()) {
+  if (safety.reset_accepted() && remote_stops_.load(std::memory_order_acquire) != remote_stops_seen_) {
+    // A remote e-stop arrived while this cycle accepted the reset: its bridge thread has
+    // already switched motor power off and asked the drives to stop; power stays off and the
+    // drives stay disabled, and the next cycle latches again.
+    CAIRN_LOG_WARN("safety", "reset overtaken by a remote e-stop in the same cycle: staying stopped");
+  } else if (safety.reset_accepted()) {
     motor_power_want_.store(true, std::memory_order_release);
     enable_request_.store(true, std::memory_order_release);
     CAIRN_LOG_INFO("safety", "reset accepted: motor power on, enabling the drives");
@@ -371,6 +385,8 @@ void Executive::control_cycle(Nanos now, double dt) {
   snap_.motor_power = motor_power_want_.load(std::memory_order_relaxed) && !estop;
   snap_.resets_accepted = safety.resets_accepted();
   snap_.resets_refused = safety.resets_refused();
+  snap_.remote_stops = remote_stops_.load(std::memory_order_acquire);
+  snap_.resets_predating = resets_predating_.load(std::memory_order_relaxed);
   snap_.stops = core_.stops();
   snap_.scans = c.scans;
   snap_.matched = c.matched;

@@ -57,6 +57,8 @@ struct RtSnapshot {
   LatchCause latch_cause = LatchCause::kNone;
   bool motor_power = false;    // what the executive asks of the board's motor relay
   std::uint64_t resets_accepted = 0, resets_refused = 0;
+  std::uint32_t remote_stops = 0;       // remote e-stops taken (RobotStatus.remote_stops)
+  std::uint64_t resets_predating = 0;   // network resets refused: they predate a remote e-stop
   double battery_voltage = 0, battery_soc = 0;
 };
 
@@ -96,6 +98,11 @@ class Executive {
   /// RT loop's next cycle accepts it if the e-stop reads released, the power board answers
   /// and the CAN thread cycles; otherwise it is refused (counted) and forgotten.
   void request_reset() { reset_requests_.fetch_add(1, std::memory_order_acq_rel); }
+  /// An operator's reset over the network (the base's SafetyReset), from any thread: refused
+  /// (false, counted) when it has not seen every remote e-stop taken so far, i.e. it was
+  /// asked for before the latest of them (topics are not ordered with each other, and the
+  /// base resends); otherwise request_reset().
+  bool request_reset(std::uint32_t remote_stops_seen);
   /// An operator's remote e-stop (the base's SafetyStop), from any thread: torque off at
   /// once (the drive master's lock-free request), motor power off, and the RT loop's next
   /// cycle latches (cause "remote e-stop") until a reset.
@@ -160,6 +167,7 @@ class Executive {
   std::atomic<std::uint32_t> reset_requests_{0};  // any thread -> RT (a count: edges are not lost)
   std::atomic<std::uint32_t> estop_presses_{0};   // power thread -> RT
   std::atomic<std::uint32_t> remote_stops_{0};    // any thread -> RT (a count: a stop is never lost)
+  std::atomic<std::uint64_t> resets_predating_{0};
   std::atomic<std::uint64_t> publish_drops_{0};
   // RT-thread state (touched only by the RT thread after start).
   RobotCore core_;

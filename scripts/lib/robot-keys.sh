@@ -41,12 +41,14 @@ check_robot_keys() {
 
 # install_robot_keys SRC ROOT: SRC's key files into ROOT/etc/cairn/keys (ROOT "" for /),
 # owned by the service user `cairn` (from ROOT/etc/passwd), the directory 0500 and the files
-# 0400: nobody else reads them. Replaces an older set whole. POSIX sh: install-robot.sh
+# 0400: nobody else reads them. Replaces an older set whole (for a moment between the two
+# renames there is none: the service, if running, keeps its files open). POSIX sh, run
+# under `set -e` (a failed step stops it before the old set is touched): install-robot.sh
 # runs it on the robot (declare -f), make-image.sh on the image's root.
 install_robot_keys() {
   ik_src=$1
   ik_root=$2
-  ik_owner=$(awk -F: '$1 == "cairn" { print $3 ":" $4 }' "$ik_root/etc/passwd" 2>/dev/null)
+  ik_owner=$(awk -F: '$1 == "cairn" { print $3 ":" $4 }' "$ik_root/etc/passwd" 2>/dev/null || true)  # no passwd: no user
   if [ -z "$ik_owner" ]; then
     if [ -z "$ik_root" ]; then echo "keys: no user cairn on this system (the cairn-robot package makes it)" >&2; return 1; fi
     echo "keys: WARNING: no user cairn in $ik_root/etc/passwd (a staging root): the keys stay root's" >&2

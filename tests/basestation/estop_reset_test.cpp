@@ -25,8 +25,9 @@ constexpr std::uint32_t kDomain = 113;  // this test's own domain
 
 class FakeRobot {
  public:
-  FakeRobot(std::uint16_t id, StopReason reason, bool accepts, Nanos status_period = 50 * kNanosPerMilli)
-      : id_(id), reason_(static_cast<std::uint8_t>(reason)), accepts_(accepts), period_(status_period) {
+  FakeRobot(std::uint16_t id, StopReason reason, bool accepts, Nanos status_period = 50 * kNanosPerMilli,
+            std::uint32_t remote_stops = 0)
+      : id_(id), reason_(static_cast<std::uint8_t>(reason)), accepts_(accepts), period_(status_period), remote_stops_(remote_stops) {
     thread_ = std::thread([this] { run(); });
   }
   ~FakeRobot() {
@@ -34,6 +35,7 @@ class FakeRobot {
     thread_.join();
   }
   int resets() const { return resets_; }
+  std::uint32_t last_stops_seen() const { return last_stops_seen_; }
   int foreign_resets() const { return foreign_; }
   StopReason reason() const { return static_cast<StopReason>(reason_.load()); }
 
@@ -52,6 +54,7 @@ class FakeRobot {
           return;
         }
         ++resets_;
+        last_stops_seen_ = r.remote_stops_seen;
         if (accepts_ && reason_ == static_cast<std::uint8_t>(StopReason::kResetRequired)) {
           reason_ = static_cast<std::uint8_t>(StopReason::kDrivesNotReady);
         }
@@ -60,6 +63,7 @@ class FakeRobot {
       s.robot_id = id_;
       s.seq = ++seq;
       s.stop_reason = reason_;
+      s.remote_stops = remote_stops_;
       dds::set_text(s.stop_text, stop_reason_text(static_cast<StopReason>(reason_.load())));
       status.write(s);
       resets.wait(period_);
@@ -70,6 +74,8 @@ class FakeRobot {
   std::atomic<std::uint8_t> reason_;
   bool accepts_;
   Nanos period_;
+  std::uint32_t remote_stops_;
+  std::atomic<std::uint32_t> last_stops_seen_{0};
   std::atomic<int> resets_{0}, foreign_{0};
   std::atomic<bool> stop_{false};
   std::thread thread_;
@@ -116,6 +122,34 @@ TEST(EstopReset, ARobotThatStaysLatchedIsReportedUnconfirmedAfterResending) {
   for (int k = 0; k < 100 && stubborn.resets() < r.sent; ++k) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   EXPECT_EQ(stubborn.resets(), r.sent);
   EXPECT_NE(r.message.find("still says stop reason 8"), std::string::npos) << r.message;
+}
+
+// Every reset names the robot's remote-stop count its exchange saw first (RobotStatus
+// .remote_stops): a robot latched again by a later remote e-stop refuses the exchange's resends.
+TEST(EstopReset, AResetCarriesTheRemoteStopCountItSaw) {
+  dds::Participant base(dds::loopback_profile(kDomain));
+  FakeRobot stopped(9, StopReason::kResetRequired, true, 50 * kNanosPerMilli, 3);
+  const EstopResetResult r = reset_estop(base, request(9));
+  EXPECT_EQ(r.outcome, EstopResetOutcome::kConfirmed) << r.message;
+  EXPECT_EQ(stopped.last_stops_seen(), 3u);
+}
+
+// E-STOP ALL ends the exchanges under way: nothing of theirs goes out after the stop.
+TEST(EstopReset, CancelAllEndsEveryExchangeAtOnce) {
+  dds::Participant base(dds::loopback_profile(kDomain));
+  EstopResetNode node(base);
+  std::string why;
+  ASSERT_TRUE(node.start(41, request(10), 0, &why)) << why;
+  ASSERT_TRUE(node.start(42, request(11), 0, &why)) << why;
+  EXPECT_FALSE(node.start(43, request(11), 0, &why));
+  EXPECT_EQ(why, "a reset for robot 11 is already under way");
+  const auto cancelled = node.cancel_all("cancelled by E-STOP ALL");
+  ASSERT_EQ(cancelled.size(), 2u);
+  EXPECT_EQ(cancelled[0].first, 41u);
+  EXPECT_EQ(cancelled[0].second.message, "robot 10: cancelled by E-STOP ALL");
+  EXPECT_FALSE(cancelled[1].second.ok());
+  EXPECT_TRUE(node.idle());
+  EXPECT_TRUE(node.poll(kNanosPerSecond).empty());
 }
 
 TEST(EstopReset, APressedEstopIsRefusedWithoutSending) {

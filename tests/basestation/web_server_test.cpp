@@ -129,7 +129,15 @@ TEST(WebServer, TheCommandQueueIsBounded) {
   EXPECT_EQ(accepted, 32);
   EXPECT_EQ(busy, 8);
   EXPECT_EQ(server.counters().queue_full.load(), 8u);
-  EXPECT_EQ(server.take_commands().size(), 32u);
+  // An E-STOP ALL still goes, in the one slot beyond the cap; a second one while it waits is it.
+  const Reply stop = request(server.port(), http::verb::post, "/api/command" + kQ, R"({"cmd":"estop_all"})");
+  EXPECT_EQ(stop.status, 202) << stop.body;
+  EXPECT_EQ(stop.body, R"({"id":33,"ok":true,"status":"queued","type":"reply"})");
+  EXPECT_EQ(request(server.port(), http::verb::post, "/api/command" + kQ, R"({"cmd":"estop_all"})").body, stop.body);
+  EXPECT_EQ(request(server.port(), http::verb::post, "/api/command" + kQ, R"({"cmd":"visit","robot":1,"x":0,"y":0})").status, 400);
+  const auto taken = server.take_commands();
+  ASSERT_EQ(taken.size(), 33u);
+  EXPECT_EQ(taken.back().command.kind, WebCommandKind::kEstopAll);
   EXPECT_EQ(request(server.port(), http::verb::post, "/api/command" + kQ, R"({"cmd":"visit","robot":1,"x":0,"y":0})").status, 202);
 }
 

@@ -198,6 +198,7 @@ TEST(Convert, SafetyResetRoundTripsAndAnUnterminatedNameIsCut) {
   r.robot_id = 3;
   r.seq = 9;
   r.issued = 123456789;
+  r.remote_stops_seen = 4;
   const char who[] = "operator at the base";
   std::memcpy(r.issued_by.data(), who, sizeof who);
   cairn_SafetyReset d{};
@@ -208,6 +209,7 @@ TEST(Convert, SafetyResetRoundTripsAndAnUnterminatedNameIsCut) {
   EXPECT_EQ(r2.robot_id, 3);
   EXPECT_EQ(r2.seq, 9u);
   EXPECT_EQ(r2.issued, 123456789);
+  EXPECT_EQ(r2.remote_stops_seen, 4u);
   EXPECT_STREQ(r2.issued_by.data(), who);
   std::memset(d.issued_by, 'x', sizeof d.issued_by);  // no terminator from the wire
   EXPECT_TRUE(dds::from_dds(d, &r2));

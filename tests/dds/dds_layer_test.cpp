@@ -130,15 +130,16 @@ void round_trip(const char* name, std::size_t padding, Fix&& fix) {
 
 // Sizes and padding of the generated C types (the same on x86-64, aarch64 and armhf: all
 // align 8-byte fields to 8). A changed IDL fails here first: update the padding with it.
-static_assert(sizeof(cairn_RobotStatus) == 872 && sizeof(cairn_OdometryIncrement) == 152 && sizeof(cairn_LaserScan) == 2320 &&
+static_assert(sizeof(cairn_RobotStatus) == 880 && sizeof(cairn_OdometryIncrement) == 152 && sizeof(cairn_LaserScan) == 2320 &&
               sizeof(cairn_FeatureObservations) == 1848 && sizeof(cairn_PoseCorrection) == 136 &&
               sizeof(cairn_TaskAssignment) == 1080 && sizeof(cairn_MapTile) == 4128 && sizeof(cairn_Bid) == 3992 &&
-              sizeof(cairn_FeatureMap) == 7200 && sizeof(cairn_SafetyReset) == 48 && sizeof(cairn_SafetyStop) == 48 &&
+              sizeof(cairn_FeatureMap) == 7200 && sizeof(cairn_SafetyReset) == 56 && sizeof(cairn_SafetyStop) == 48 &&
               sizeof(cairn_VisitRequest) == 64);
 
 TEST(DdsLayer, RoundTripEveryTopicType) {  // all twelve @topic types of common/idl/cairn.idl
   // robot_id (2) + stop_text (3) + n_devices (3) + 6 x DeviceStatus after `state` (3) + nav_state (3)
-  round_trip<cairn_RobotStatus>("RobotStatus", 2 + 3 + 3 + 6 * 3 + 3, [](cairn_RobotStatus& s) {
+  // + after remote_stops at the end (4)
+  round_trip<cairn_RobotStatus>("RobotStatus", 2 + 3 + 3 + 6 * 3 + 3 + 4, [](cairn_RobotStatus& s) {
     set_text(s.name, 'n');
     set_text(s.stop_text, 's');
     s.mode = cairn_MODE_FAULT;
@@ -156,7 +157,8 @@ TEST(DdsLayer, RoundTripEveryTopicType) {  // all twelve @topic types of common/
   });
   round_trip<cairn_PoseCorrection>("PoseCorrection", 2, [](cairn_PoseCorrection&) {});
   round_trip<cairn_TaskAssignment>("TaskAssignment", 2 + 4 + 4 + 6, [](cairn_TaskAssignment& s) { s.kind = cairn_TASK_GOTO; });
-  round_trip<cairn_SafetyReset>("SafetyReset", 2, [](cairn_SafetyReset& s) { set_text(s.issued_by, 'o'); });
+  // robot_id (2) + after remote_stops_seen at the end (4)
+  round_trip<cairn_SafetyReset>("SafetyReset", 2 + 4, [](cairn_SafetyReset& s) { set_text(s.issued_by, 'o'); });
   round_trip<cairn_SafetyStop>("SafetyStop", 2, [](cairn_SafetyStop& s) { set_text(s.issued_by, 'e'); });
   round_trip<cairn_VisitRequest>("VisitRequest", 2, [](cairn_VisitRequest& s) { set_text(s.issued_by, 'v'); });
   round_trip<cairn_MapTile>("MapTile", 2, [](cairn_MapTile&) {});

@@ -527,8 +527,13 @@ TEST_F(ExecutiveHil, EstopLatchesTorqueOffWithin20msAndOnlyAResetRestarts) {
   ASSERT_GT(relay_off, 0) << "a remote stop did not switch motor power off";
   EXPECT_GT(h.run_until([&] { return reason() == StopReason::kResetRequired; }, 1.0, &follower), 0);
   EXPECT_EQ(h.exec->rt_snapshot().latch_cause, firmware::LatchCause::kRemoteStop);
+  EXPECT_EQ(h.exec->rt_snapshot().remote_stops, 1u);
+  // A network reset asked for before this stop (it saw no remote stop) is refused, counted;
+  // the robot stays latched. One that saw it is taken.
+  EXPECT_FALSE(h.exec->request_reset(0u));
   expect_stays_stopped(h, &follower, 0.5, StopReason::kResetRequired);
-  h.exec->request_reset();
+  EXPECT_EQ(h.exec->rt_snapshot().resets_predating, 1u);
+  EXPECT_TRUE(h.exec->request_reset(1u));
   EXPECT_GT(h.run_until(moving, 10.0, &follower), 0) << "no motion after the reset of a remote stop";
   std::printf("remote e-stop -> torque off at both drives: %.2f ms, motor relay off written: %.2f ms\n", ms_of(off - asked),
               ms_of(relay_off - asked));

@@ -232,6 +232,7 @@ def main():
         from selenium import webdriver
         from selenium.common.exceptions import WebDriverException
         from selenium.webdriver.chrome.service import Service
+        from selenium.webdriver.common import utils as selenium_utils
         from selenium.webdriver.common.action_chains import ActionBuilder
         from selenium.webdriver.common.by import By
         from selenium.webdriver.support.ui import Select
@@ -290,12 +291,25 @@ def main():
               f"--user-data-dir={profile}", "--window-size=1240,900", "--no-proxy-server",
               "--no-first-run", "--no-default-browser-check", "--disable-extensions", "--disable-sync",
               "--disable-background-networking", "--disable-component-update",  # no calls home from a fresh machine
-              "--disable-background-timer-throttling", "--disable-renderer-backgrounding"):
+              "--disable-background-timer-throttling", "--disable-renderer-backgrounding",
+              # chromedriver talks to chromium over a pipe: its TCP DevTools connection goes to
+              # "localhost", which a fresh root without /etc/hosts cannot resolve
+              "--remote-debugging-pipe"):
         options.add_argument(a)
     options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     t_browser = time.monotonic()
+    # selenium's Service polls and addresses chromedriver as "localhost", which a fresh Debian
+    # root without /etc/hosts cannot resolve (the first fresh-machine run failed so: "Can not
+    # connect to the Service"): this one uses 127.0.0.1.
+    class LoopbackService(Service):
+        @property
+        def service_url(self):
+            return f"http://127.0.0.1:{self.port}"
+
+        def is_connectable(self):
+            return selenium_utils.is_connectable(self.port, "127.0.0.1")
     try:
-        driver = webdriver.Chrome(service=Service(executable_path=CHROMEDRIVER, log_path=os.path.join(out, "chromedriver.log")),
+        driver = webdriver.Chrome(service=LoopbackService(executable_path=CHROMEDRIVER, log_path=os.path.join(out, "chromedriver.log")),
                                   options=options)
     except WebDriverException as e:
         fatal(f"chromium did not start under chromedriver: {e.msg} (log: {out}/chromedriver.log)")
