@@ -15,6 +15,7 @@
 #include "basestation/web/foxglove_op.hpp"
 #include "basestation/web/web_server.hpp"
 #include "tests/basestation/foxglove_client.hpp"
+#include "tests/support/eventually.hpp"
 
 namespace cairn::base {
 namespace {
@@ -36,16 +37,7 @@ WebServerOptions options() {
 
 beast_error websocket_declined() { return test::websocket::error::upgrade_declined; }
 
-// Waits (bounded) for a condition the server's thread makes true.
-template <typename F>
-bool eventually(F done, std::chrono::milliseconds limit = std::chrono::seconds(5)) {
-  const auto end = std::chrono::steady_clock::now() + limit;
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  }
-  return done();
-}
+using testing::eventually;
 
 // A 7 x 5 map at 0.1 m from (-1, 2): cell (3, 2) an obstacle, (0, 0) clear, the rest unknown.
 ClassGrid small_map() {

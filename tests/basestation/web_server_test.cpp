@@ -2,6 +2,7 @@
 // route and the socket; sizes are capped and counted; the command queue is bounded; a
 // socket gets the published snapshots while the publishing thread goes on (TSan build).
 #include "basestation/web/web_server.hpp"
+#include "tests/support/eventually.hpp"
 
 #include <gtest/gtest.h>
 
@@ -57,16 +58,7 @@ Reply request(std::uint16_t port, http::verb method, const std::string& target, 
   return {static_cast<int>(res.result_int()), res.body()};
 }
 
-// Waits (bounded) for a condition another thread makes true.
-template <typename F>
-bool eventually(F done) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  }
-  return done();
-}
+using testing::eventually;
 
 const std::string kQ = std::string("?token=") + kToken;
 
