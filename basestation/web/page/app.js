@@ -11,7 +11,8 @@ const colours = ["#dc1e1e", "#1e5adc", "#14a028", "#c87800", "#9628b4", "#00a0aa
 const colour = (id) => colours[(Math.max(id, 1) - 1) % colours.length];
 
 // What the tests read: the latest messages, counts, and the view's transform.
-const view = { state: null, map: null, image: null, counts: { state: 0, map: 0, tiles: 0, reply: 0 }, lastReply: null };
+const view = { state: null, map: null, image: null, counts: { state: 0, map: 0, tiles: 0, reply: 0 }, lastReply: null,
+               resetButtons: new Map() };
 window.cairnView = view;
 
 // The map fills the canvas, keeping its aspect; world y grows up, canvas y down.
@@ -146,6 +147,20 @@ function send(cmd) {
   return true;
 }
 
+// A latched robot's reset button is the same element from one redraw to the next: one made
+// anew on every state update would be swapped out under the operator's pointer between
+// press and release, and the click would be lost.
+function resetButton(id) {
+  let b = view.resetButtons.get(id);
+  if (!b) {
+    b = document.createElement("button");
+    b.className = "reset"; b.textContent = "reset"; b.dataset.robot = String(id);
+    b.onclick = () => send({ cmd: "reset", robot: id });
+    view.resetButtons.set(id, b);
+  }
+  return b;
+}
+
 function panel() {
   const s = view.state;
   const body = document.querySelector("#robots tbody");
@@ -161,12 +176,7 @@ function panel() {
     const stop = document.createElement("span");
     stop.textContent = text(r.stop);
     if (r.estop) stop.className = "estop";
-    if (r.reset_required) {  // latched: the operator may reset it from here
-      const b = document.createElement("button");
-      b.className = "reset"; b.textContent = "reset"; b.dataset.robot = String(r.id);
-      b.onclick = () => send({ cmd: "reset", robot: r.id });
-      stop.append(" ", b);
-    }
+    if (r.reset_required) stop.append(" ", resetButton(r.id));  // latched: the operator may reset it from here
     const battery = r.battery_v ? `${r.battery_v.toFixed(1)} V ${Math.round(r.battery_soc * 100)}%` : "";
     const task = r.task ? `${r.task.kind} #${r.task.id}` : "";
     body.append(row([name, text(r.mode), `${r.presence} ${r.link_age_s.toFixed(1)} s`, battery, stop, task]));
@@ -180,6 +190,8 @@ function panel() {
       select.append(o);
     }
   }
+  const latched = new Set(s.robots.filter((r) => r.reset_required).map((r) => r.id));
+  for (const id of view.resetButtons.keys()) if (!latched.has(id)) view.resetButtons.delete(id);
   const cmds = document.querySelector("#commands tbody");
   cmds.replaceChildren();
   for (const c of s.commands) {
