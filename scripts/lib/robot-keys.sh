@@ -7,11 +7,12 @@ robot_key_files="cert.pem key.pem ca.pem governance.p7s permissions.p7s crl.pem"
 
 # check_robot_keys DIR CONFIG: 0 when DIR holds robot ID's keys for CONFIG ([robot] id = ID),
 # its certificate verifies against its CA and revocation list, the key is the certificate's,
+# the governance and permissions are signed by that CA and the permissions are this robot's,
 # and CONFIG names them ([dds] profile secure or secure-loopback, keys = "/etc/cairn/keys").
 # Otherwise prints the reason on stdout and returns 1. A certificate or revocation list that
 # ends within 30 days is a warning on stderr.
 check_robot_keys() {
-  local dir=$1 config=$2 f missing="" id cn err end
+  local dir=$1 config=$2 f missing="" id cn err end grant
   [[ -d $dir ]] || { echo "keys directory '$dir' not found"; return 1; }
   for f in $robot_key_files; do [[ -r $dir/$f ]] || missing+=" $f"; done
   [[ -z $missing ]] || { echo "keys directory '$dir' lacks$missing (scripts/fleet-keys.sh add FLEET robot ID makes one)"; return 1; }
@@ -28,6 +29,16 @@ check_robot_keys() {
     { echo "$cn's certificate does not verify against its fleet CA and revocation list: $(grep -m1 -i 'error' <<<"$err" || echo "$err")"; return 1; }
   [[ $(openssl pkey -in "$dir/key.pem" -pubout 2>/dev/null) == "$(openssl x509 -in "$dir/cert.pem" -noout -pubkey 2>/dev/null)" ]] ||
     { echo "'$dir/key.pem' is not the key of $cn's certificate"; return 1; }
+  # The signed documents: Cyclone refuses to start on governance or permissions its CA did
+  # not sign, or on permissions granted to somebody else (a member directory put together
+  # from two robots' files): say so here, not in the robot's journal after the flash.
+  for f in governance.p7s permissions.p7s; do
+    openssl smime -verify -in "$dir/$f" -CAfile "$dir/ca.pem" -out /dev/null >/dev/null 2>&1 ||
+      { echo "'$dir/$f' is not signed by the fleet CA in '$dir/ca.pem'"; return 1; }
+  done
+  grant=$(openssl smime -verify -in "$dir/permissions.p7s" -CAfile "$dir/ca.pem" 2>/dev/null |
+          sed -n 's/.*<grant name="\([^"]*\)".*/\1/p' | head -n1)
+  [[ $grant == "$cn" ]] || { echo "the permissions in '$dir' are ${grant:-nobody}'s, the certificate is $cn's"; return 1; }
   if ! openssl x509 -in "$dir/cert.pem" -noout -checkend $((30 * 86400)) >/dev/null; then
     end=$(openssl x509 -in "$dir/cert.pem" -noout -enddate | cut -d= -f2)
     echo "WARNING: $cn's certificate ends on $end: renew it (scripts/fleet-keys.sh renew FLEET $cn)" >&2

@@ -81,6 +81,14 @@ expect 1 '--keys needs a --config' "$mk" aarch64 "${ok[@]}" --keys "$tmp/fleet/m
 expect 1 "keys refused: keys directory '.*/nokeys' not found" "$mk" aarch64 "${ok[@]}" --config "$tmp/secure.toml" --keys "$tmp/nokeys"
 expect 1 'keys refused: .*must be "secure"' "$mk" aarch64 "${ok[@]}" --config "$tmp/loopback.toml" --keys "$tmp/fleet/members/robot-3"
 expect 1 "keys refused: the keys in .* are robot-4's, the configuration is robot 3's" "$mk" aarch64 "${ok[@]}" --config "$tmp/secure.toml" --keys "$tmp/fleet/members/robot-4"
+# A member directory put together from two robots' files, and documents the CA did not sign.
+cp -r "$tmp/fleet/members/robot-3" "$tmp/mixed" && cp "$tmp/fleet/members/robot-4/permissions.p7s" "$tmp/mixed/"
+expect 1 "keys refused: the permissions in .* are robot-4's, the certificate is robot-3's" "$mk" aarch64 "${ok[@]}" --config "$tmp/secure.toml" --keys "$tmp/mixed"
+cp -r "$tmp/fleet/members/robot-3" "$tmp/tampered" && sed -i 's/robot-3/robot-9/' "$tmp/tampered/permissions.p7s"
+expect 1 "keys refused: '.*/permissions.p7s' is not signed by the fleet CA" "$mk" aarch64 "${ok[@]}" --config "$tmp/secure.toml" --keys "$tmp/tampered"
+cp -r "$tmp/fleet/members/robot-3" "$tmp/foreign" && "$src/scripts/fleet-keys.sh" init "$tmp/fleet2" >/dev/null &&
+  cp "$tmp/fleet2/governance.p7s" "$tmp/foreign/" || { echo "FAIL: a second fleet"; fails=$((fails + 1)); }
+expect 1 "keys refused: '.*/governance.p7s' is not signed by the fleet CA" "$mk" aarch64 "${ok[@]}" --config "$tmp/secure.toml" --keys "$tmp/foreign"
 expect 1 "SSH key '.*/nokey.pub' not found" "$mk" aarch64 "${ok[@]}" --ssh-key "$tmp/nokey.pub"
 expect 1 'not an OpenSSH public key' "$mk" aarch64 "${ok[@]}" --ssh-key "$tmp/key"
 expect 1 'cannot write' "$mk" aarch64 --package "$tmp/robot-arm64.deb" --ssh-key "$tmp/key.pub" --out "$tmp/nodir/robot.img"
