@@ -52,6 +52,8 @@ class ExploreNode {
   std::string summary() const;
   const explore::TaskAllocator& allocator() const { return allocator_; }
   const ExploreNodeCounters& counters() const { return counters_; }
+  /// Bids dropped for a robot_id other than their writer's partition's (a robot posing as another).
+  std::uint64_t foreign_samples() const { return bid_reader_.foreign_samples(); }
 
  private:
   explore::TaskAllocator allocator_;

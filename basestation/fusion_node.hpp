@@ -31,6 +31,8 @@ class FusionNode {
   /// table and its final lines).
   std::string robot_lines(const char* prefix = "") const;
   const Fusion& fusion() const { return fusion_; }
+  /// Odometry and features dropped for a robot_id other than their writer's partition's.
+  std::uint64_t foreign_samples() const { return odom_reader_.foreign_samples() + feat_reader_.foreign_samples(); }
   const StateStore& store() const { return store_; }
 
  private:

@@ -56,6 +56,8 @@ class GridMapNode {
 
   const mapper::Mapper& mapper() const { return mapper_; }
   const GridMapCounters& counters() const { return counters_; }
+  /// Scans dropped for a robot_id other than their writer's partition's (a robot posing as another).
+  std::uint64_t foreign_samples() const { return scan_reader_.foreign_samples(); }
   /// One line for the console.
   std::string summary() const;
   /// The mapped area by class (m²), from the map as classified now: the base's own measure

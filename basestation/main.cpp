@@ -333,8 +333,14 @@ int run(const std::string& config_path, double duration_s) {
     if (now >= next_table) {
       next_table += cfg.table_period;
       if (tty) std::printf("\033[2J\033[H");
-      std::printf("[%8.3f] fleet: %zu alive, %llu status(es) of unlisted robots refused\n%s", nanos_to_seconds(now - start),
-                  fleet.alive_count(), static_cast<unsigned long long>(fleet.refused()), fleet.table(now).c_str());
+      // A robot may write only in its own partition (docs/security.md): a sample keyed to
+      // another robot is one posing as it, dropped by the reader of its topic.
+      const std::uint64_t foreign = status_reader.foreign_samples() + (fusion ? fusion->foreign_samples() : 0) +
+                                    (map ? map->foreign_samples() : 0) + (explore ? explore->foreign_samples() : 0);
+      std::printf("[%8.3f] fleet: %zu alive, %llu status(es) of unlisted robots refused, %llu sample(s) of another robot's id "
+                  "dropped\n%s",
+                  nanos_to_seconds(now - start), fleet.alive_count(), static_cast<unsigned long long>(fleet.refused()),
+                  static_cast<unsigned long long>(foreign), fleet.table(now).c_str());
       if (fusion) std::printf("[%8.3f] %s\n%s", nanos_to_seconds(now - start), fusion->summary().c_str(), fusion->robot_lines().c_str());
       if (map) std::printf("[%8.3f] %s\n", nanos_to_seconds(now - start), map->summary().c_str());
       if (explore) std::printf("[%8.3f] %s\n", nanos_to_seconds(now - start), explore->summary().c_str());

@@ -37,16 +37,16 @@ RobotBridge::RobotBridge(const dds::Participant& pp, const RobotConfig& cfg)
         dds::QosSpec q = dds::state_qos();
         q.liveliness_lease = cfg.liveliness_lease;
         return q;
-      }()),
-      odom_writer_(pp, odom_topic_, dds::latched_qos(kFusionHistory)),
-      laser_writer_(pp, laser_topic_, dds::sensor_qos()),
-      feat_writer_(pp, feat_topic_, dds::latched_qos(kFusionHistory)),
+      }(), cfg.id),
+      odom_writer_(pp, odom_topic_, dds::latched_qos(kFusionHistory), cfg.id),
+      laser_writer_(pp, laser_topic_, dds::sensor_qos(), cfg.id),
+      feat_writer_(pp, feat_topic_, dds::latched_qos(kFusionHistory), cfg.id),
       corr_reader_(pp, corr_topic_, dds::latched_qos()),
       task_reader_(pp, task_topic_, dds::latched_qos()),
       reset_reader_(pp, reset_topic_, dds::state_qos(4)),  // volatile: never an old reset
       stop_reader_(pp, stop_topic_, dds::state_qos(4)),    // volatile: never an old stop
       tile_reader_(pp, tile_topic_, dds::latched_qos()),  // as the base writes them: a late robot gets all
-      bid_writer_(pp, bid_topic_, dds::state_qos(1)),  // the latest bid is what counts
+      bid_writer_(pp, bid_topic_, dds::state_qos(1), cfg.id),  // the latest bid is what counts
       global_map_(cfg.global_map) {
   status_.robot_id = cfg.id;
   dds::set_text(status_.name, cfg.name);

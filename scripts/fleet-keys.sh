@@ -40,6 +40,10 @@ robot_publishes="cairn_robot_status cairn_odometry cairn_laser_scan cairn_featur
 robot_reads="cairn_task cairn_pose_correction cairn_safety_reset cairn_safety_stop cairn_map_tile cairn_feature_map"
 base_publishes="cairn_task cairn_pose_correction cairn_safety_reset cairn_safety_stop cairn_map_tile cairn_feature_map cairn_visit_request"
 bench_topics="bench_ping bench_pong bench_data"  # tests/bench/dds_bench.cpp
+# A robot publishes its topics only in its own partition, PREFIX<id>, and the base and the
+# viewer read them in PREFIX* (common/dds/partition.hpp's kRobotPartitionPrefix; a test
+# checks they agree). A rule without <partitions> covers only the default partition.
+robot_partition_prefix="cairn-robot-"
 
 org="Cairn fleet"
 subject() { echo "/O=$org/CN=$1"; }
@@ -75,6 +79,7 @@ issue() {  # DIR NAME ROLE DEST: a new key, certificate and signed permissions f
 }
 
 topics_xml() { local t; for t in $1; do echo "            <topic>$t</topic>"; done; }
+partition_xml() { echo "          <partitions><partition>$1</partition></partitions>"; }
 
 permissions_xml() {  # NAME ROLE DOMAIN NOT_BEFORE NOT_AFTER
   local name=$1 role=$2 domain=$3
@@ -93,7 +98,9 @@ EOF
         <domains><id>$domain</id></domains>
         <publish><topics>
 $(topics_xml "$robot_publishes")
-        </topics></publish>
+        </topics>
+$(partition_xml "$robot_partition_prefix$((10#${name#robot-}))")
+        </publish>
         <subscribe><topics>
 $(topics_xml "$robot_reads")
         </topics></subscribe>
@@ -107,6 +114,11 @@ EOF
 $(topics_xml "$base_publishes")
         </topics></publish>
         <subscribe><topics><topic>*</topic></topics></subscribe>
+        <subscribe><topics>
+$(topics_xml "$robot_publishes")
+        </topics>
+$(partition_xml "$robot_partition_prefix*")
+        </subscribe>
       </allow_rule>
 EOF
     ;;
@@ -126,6 +138,11 @@ EOF
       <allow_rule>
         <domains><id>$domain</id></domains>
         <subscribe><topics><topic>*</topic></topics></subscribe>
+        <subscribe><topics>
+$(topics_xml "$robot_publishes")
+        </topics>
+$(partition_xml "$robot_partition_prefix*")
+        </subscribe>
       </allow_rule>
 EOF
     ;;

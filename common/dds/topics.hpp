@@ -8,25 +8,28 @@
 
 namespace cairn::dds {
 
-#define CAIRN_TOPIC(Type, Name)                                                           \
+// PerRobot: a robot publishes the topic, each robot in its own partition (robot_partition;
+// scripts/fleet-keys.sh's robot_publishes must list the same topics).
+#define CAIRN_TOPIC(Type, Name, PerRobot)                                                 \
   template <>                                                                             \
   struct TopicTraits<cairn_##Type> {                                                      \
     static const dds_topic_descriptor_t* descriptor() { return &cairn_##Type##_desc; }   \
     static constexpr const char* name = Name;                                             \
+    static constexpr bool per_robot = PerRobot;                                           \
   };
 
-CAIRN_TOPIC(RobotStatus, "cairn_robot_status")
-CAIRN_TOPIC(OdometryIncrement, "cairn_odometry")
-CAIRN_TOPIC(LaserScan, "cairn_laser_scan")
-CAIRN_TOPIC(FeatureObservations, "cairn_features")
-CAIRN_TOPIC(PoseCorrection, "cairn_pose_correction")
-CAIRN_TOPIC(TaskAssignment, "cairn_task")
-CAIRN_TOPIC(SafetyReset, "cairn_safety_reset")
-CAIRN_TOPIC(SafetyStop, "cairn_safety_stop")
-CAIRN_TOPIC(MapTile, "cairn_map_tile")
-CAIRN_TOPIC(Bid, "cairn_bid")
-CAIRN_TOPIC(FeatureMap, "cairn_feature_map")
-CAIRN_TOPIC(VisitRequest, "cairn_visit_request")
+CAIRN_TOPIC(RobotStatus, "cairn_robot_status", true)
+CAIRN_TOPIC(OdometryIncrement, "cairn_odometry", true)
+CAIRN_TOPIC(LaserScan, "cairn_laser_scan", true)
+CAIRN_TOPIC(FeatureObservations, "cairn_features", true)
+CAIRN_TOPIC(PoseCorrection, "cairn_pose_correction", false)
+CAIRN_TOPIC(TaskAssignment, "cairn_task", false)
+CAIRN_TOPIC(SafetyReset, "cairn_safety_reset", false)
+CAIRN_TOPIC(SafetyStop, "cairn_safety_stop", false)
+CAIRN_TOPIC(MapTile, "cairn_map_tile", false)
+CAIRN_TOPIC(Bid, "cairn_bid", true)
+CAIRN_TOPIC(FeatureMap, "cairn_feature_map", false)
+CAIRN_TOPIC(VisitRequest, "cairn_visit_request", false)
 
 #undef CAIRN_TOPIC
 

@@ -43,7 +43,7 @@ class FakeRobot {
   void run() {
     dds::Participant pp(dds::loopback_profile(kDomain));
     dds::Topic<cairn_RobotStatus> st(pp);
-    dds::Writer<cairn_RobotStatus> status(pp, st, dds::state_qos());
+    dds::Writer<cairn_RobotStatus> status(pp, st, dds::state_qos(), id_);
     dds::Topic<cairn_SafetyReset> rt(pp);
     dds::Reader<cairn_SafetyReset> resets(pp, rt, dds::state_qos(4));
     std::uint32_t seq = 0;

@@ -60,7 +60,7 @@ struct Base {
         node(pp, config()),
         robots(dds::loopback_profile(domain)),
         bid_topic(robots),
-        bids(robots, bid_topic, dds::state_qos(1)) {
+        bids(robots, bid_topic, dds::state_qos(1), {1, 2, 9}) {
     localise(&fusion, 1);
     localise(&fusion, 2);
     for (std::uint16_t id : {std::uint16_t{1}, std::uint16_t{2}}) fleet.on_status(id, "r", "running", 1, clock.now());
@@ -82,7 +82,7 @@ struct Base {
   ExploreNode node;
   dds::Participant robots;
   dds::Topic<cairn_Bid> bid_topic;
-  dds::Writer<cairn_Bid> bids;
+  dds::RobotWriters<cairn_Bid> bids;  // robots 1, 2 and 9, each in its partition
 };
 
 // Both robots' best item is the same frontier A (robot 1 is nearer); robot 2's second is

@@ -94,7 +94,7 @@ TEST(GridMapNode, ScansFromDdsBuildTheMapOnlyChangedTilesGoOutAndALateReaderGets
   ASSERT_EQ(node.tiles_y(), 5);
 
   dds::Topic<cairn_LaserScan> scan_topic(pp);
-  dds::Writer<cairn_LaserScan> scan_writer(pp, scan_topic, dds::state_qos(16));
+  dds::RobotWriters<cairn_LaserScan> scan_writer(pp, scan_topic, dds::state_qos(16), {1, 9});  // each in its partition
   ASSERT_TRUE(scan_writer.wait_for_readers(1, 5 * kNanosPerSecond));
   auto sample = std::make_unique<cairn_LaserScan>();
   dds::to_dds(room_scan(9, 1), sample.get());  // robot 9: unknown to the fusion
@@ -226,7 +226,7 @@ TEST(GridMapNode, ExportIsWhatMapServerReadsAndAFailedExportIsReportedNotThrown)
   localise(&fusion);
   GridMapNode node(pp, cfg);
   dds::Topic<cairn_LaserScan> scan_topic(pp);
-  dds::Writer<cairn_LaserScan> scan_writer(pp, scan_topic, dds::state_qos(16));
+  dds::Writer<cairn_LaserScan> scan_writer(pp, scan_topic, dds::state_qos(16), 1);
   ASSERT_TRUE(scan_writer.wait_for_readers(1, 5 * kNanosPerSecond));
   auto sample = std::make_unique<cairn_LaserScan>();
   dds::to_dds(room_scan(1, 1), sample.get());

@@ -100,8 +100,13 @@ Phase run_phase(const std::string& world_path, double seconds, int priority, boo
   received.stamps.reserve(static_cast<std::size_t>(seconds + 10) * 200);
   dds_listener_t* on_data = dds_create_listener(&received);
   dds_lset_data_available(on_data, &Received::on_data_available);
+  // The robot writes in its own partition (common/dds/partition.hpp); so must the reader read.
+  dds_qos_t* sub_qos = dds::make_partition_qos(dds::kAllRobotsPartition);
+  const dds_entity_t subscriber = dds_create_subscriber(listener_pp.handle(), sub_qos, nullptr);
+  dds_delete_qos(sub_qos);
+  if (subscriber < 0) throw std::runtime_error("dds_create_subscriber failed");
   dds_qos_t* qos = dds::make_qos(dds::latched_qos(512));
-  const dds_entity_t reader = dds_create_reader(listener_pp.handle(), topic.handle(), qos, on_data);
+  const dds_entity_t reader = dds_create_reader(subscriber, topic.handle(), qos, on_data);
   dds_delete_qos(qos);
   dds_delete_listener(on_data);
   if (reader < 0) throw std::runtime_error("dds_create_reader failed");

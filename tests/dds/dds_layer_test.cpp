@@ -7,7 +7,10 @@
 #include <functional>
 #include <memory>
 #include <random>
+#include <map>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "common/config.hpp"
 #include "common/dds/topics.hpp"
@@ -101,13 +104,19 @@ void round_trip(const char* name, std::size_t padding, Fix&& fix) {
   const auto& pp = participant();
   Topic<T> topic(pp);
   Reader<T> zeros(pp, topic, state_qos(4)), ones(pp, topic, state_qos(4));
-  Writer<T> writer(pp, topic, state_qos(4));
-  ASSERT_TRUE(writer.wait_for_readers(2, 3 * kNanosPerSecond));
   auto sent = std::make_unique<T>();
   std::mt19937 rng(static_cast<std::uint32_t>(std::hash<std::string>{}(name)));
   auto* bytes = reinterpret_cast<unsigned char*>(sent.get());
   for (std::size_t i = 0; i < sizeof(T); ++i) bytes[i] = static_cast<unsigned char>(rng());
   fix(*sent);
+  auto writer = [&] {  // a robot's topic: written by the sample's robot, in its partition
+    if constexpr (PerRobotTopic<T>) {
+      return Writer<T>(pp, topic, state_qos(4), sent->robot_id);
+    } else {
+      return Writer<T>(pp, topic, state_qos(4));
+    }
+  }();
+  ASSERT_TRUE(writer.wait_for_readers(2, 3 * kNanosPerSecond));
   ASSERT_TRUE(writer.write(*sent));
   auto got0 = std::make_unique<T>(), got1 = std::make_unique<T>();
   std::memset(static_cast<void*>(got0.get()), 0x00, sizeof(T));
@@ -216,7 +225,7 @@ TEST(DdsLayer, DisposeAndWriterLossAreReportedAsEvents) {
                 [&](const cairn_RobotStatus& k, InstanceEvent e) { events.emplace_back(k.robot_id, e); });
   };
   {
-    Writer<cairn_RobotStatus> w(pp, topic, state_qos(1));
+    RobotWriters<cairn_RobotStatus> w(pp, topic, state_qos(1), {1, 2});
     ASSERT_TRUE(w.wait_for_readers(1, 3 * kNanosPerSecond));
     cairn_RobotStatus s{};
     s.robot_id = 1;
@@ -230,12 +239,74 @@ TEST(DdsLayer, DisposeAndWriterLossAreReportedAsEvents) {
       return !events.empty();
     }));
     EXPECT_EQ(events[0], std::make_pair(1, InstanceEvent::kDisposed));
-  }  // writer deleted: robot 2 has no writers now
+  }  // writers deleted: robot 2 has no writers now
   ASSERT_TRUE(eventually([&] {
     drain();
     return events.size() >= 2;
   }));
   EXPECT_EQ(events[1], std::make_pair(2, InstanceEvent::kNoWriters));
+}
+
+TEST(DdsLayer, RobotPartitionNames) {
+  EXPECT_STREQ(robot_partition(7).c_str(), "cairn-robot-7");
+  EXPECT_STREQ(robot_partition(65535).c_str(), "cairn-robot-65535");
+  EXPECT_EQ(robot_of_partition("cairn-robot-7"), 7);
+  EXPECT_EQ(robot_of_partition("cairn-robot-65535"), 65535);
+  for (const char* p : {"", "cairn-robot-", "cairn-robot-*", "cairn-robot-07", "cairn-robot-65536", "cairn-robot-1x", "robot-1"})
+    EXPECT_EQ(robot_of_partition(p), std::nullopt) << p;
+}
+
+// Issue 20: a robot's certificate may write only in its own partition, so a sample keyed to
+// another robot than its writer's partition says is a robot lying about who it is.
+TEST(DdsLayer, PerRobotSamplesAreDeliveredOnlyFromTheirRobotsPartition) {
+  const auto& pp = participant();
+  Topic<cairn_RobotStatus> topic(pp, "partition_test_status");
+  Reader<cairn_RobotStatus> all_robots(pp, topic, state_qos(8));           // cairn-robot-*
+  Reader<cairn_RobotStatus> in_default(pp, topic, state_qos(8), nullptr);  // partition ""
+  Writer<cairn_RobotStatus> robot1(pp, topic, state_qos(8), 1), robot2(pp, topic, state_qos(8), 2);
+  ASSERT_TRUE(robot1.wait_for_readers(1, 3 * kNanosPerSecond));
+  ASSERT_TRUE(robot2.wait_for_readers(1, 3 * kNanosPerSecond));
+  cairn_RobotStatus s{};
+  s.robot_id = 2;
+  s.seq = 11;
+  ASSERT_TRUE(robot1.write(s));  // robot 1 claims to be robot 2
+  s.seq = 22;
+  ASSERT_TRUE(robot2.write(s));
+  s.robot_id = 1;
+  s.seq = 33;
+  ASSERT_TRUE(robot1.write(s));
+
+  std::map<std::uint32_t, int> got;  // seq -> robot
+  std::vector<std::pair<int, InstanceEvent>> events;
+  auto take = [&] {
+    all_robots.take([&](const cairn_RobotStatus& r, const dds_sample_info_t&) { got[r.seq] = r.robot_id; },
+                    [&](const cairn_RobotStatus& k, InstanceEvent e) { events.emplace_back(k.robot_id, e); });
+  };
+  ASSERT_TRUE(eventually([&] {
+    take();
+    return got.size() >= 2 && all_robots.foreign_samples() >= 1;
+  })) << got.size() << " delivered, " << all_robots.foreign_samples() << " dropped";
+  EXPECT_EQ(got, (std::map<std::uint32_t, int>{{22, 2}, {33, 1}}));
+  EXPECT_EQ(all_robots.foreign_samples(), 1u);
+  // Robot 1 says robot 2 left: not believed either.
+  s.robot_id = 2;
+  ASSERT_TRUE(robot1.dispose(s));
+  ASSERT_TRUE(eventually([&] {
+    take();
+    return all_robots.foreign_samples() >= 2;
+  }));
+  EXPECT_TRUE(events.empty());
+  EXPECT_EQ(got.size(), 2u);
+
+  // A reader in the default partition matches none of the robots' writers.
+  dds_subscription_matched_status_t matched{};
+  ASSERT_GE(dds_get_subscription_matched_status(in_default.handle(), &matched), 0);
+  EXPECT_EQ(matched.current_count, 0u);
+  std::size_t in_default_got = 0;
+  in_default.take([&](const cairn_RobotStatus&, const dds_sample_info_t&) { ++in_default_got; });
+  EXPECT_EQ(in_default_got, 0u);
+  ASSERT_GE(dds_get_subscription_matched_status(all_robots.handle(), &matched), 0);
+  EXPECT_EQ(matched.current_count, 2u);
 }
 
 TEST(DdsLayer, ErrorsNameTheCall) {

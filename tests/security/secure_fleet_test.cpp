@@ -92,6 +92,7 @@ Outcome one(const std::vector<std::string>& a) {
   std::vector<std::string> av{kProbe};
   av.insert(av.end(), a.begin(), a.begin() + 4);
   av.push_back(kDomain);
+  av.insert(av.end(), a.begin() + 4, a.end());
   Subprocess p(av);
   const int s = p.wait(30s);
   return {s, p.output()};
@@ -122,6 +123,29 @@ TEST(SecureFleet, ARobotCannotWriteTasksNorTheViewerAnything) {
   EXPECT_EQ(viewer.status, 4) << viewer.output;
   const Outcome reads = one({member("robot-1"), "sub", "bid_is_not_a_probe_topic", "1"});
   EXPECT_EQ(reads.status, 2);  // the probe's own argument check, so a typo cannot pass as a refusal
+}
+
+// Issue 20: permissions grant topics, not key values, so each robot publishes in its own
+// partition and only there: robot 1's keys cannot make a writer in robot 2's partition.
+TEST(SecureFleet, ARobotCannotWriteInAnotherRobotsPartition) {
+  const Outcome other = one({member("robot-1"), "pub", "status", "2", "2", "2"});
+  EXPECT_EQ(other.status, 4) << other.output;
+  EXPECT_NE(other.output.find("writer refused"), std::string::npos) << other.output;
+}
+
+// ... and a status keyed robot 2 that robot 1 writes in its own partition is dropped by the
+// base's reader, counted, never delivered (robot 1's own status does arrive: the first test).
+TEST(SecureFleet, AStatusKeyedToAnotherRobotNeverReachesTheBase) {
+  auto [pub, base] = pair({member("robot-1"), "pub", "status", "4", "2", "1"}, {member("base"), "sub", "status", "4"});
+  EXPECT_EQ(pub.status, 0) << "the base's reader did not match robot 1's writer: " << pub.output;
+  EXPECT_EQ(base.status, 5) << "a status of robot 2 from robot 1 arrived: " << base.output;
+  const std::smatch m = [&] {
+    std::smatch r;
+    std::regex_search(base.output, r, std::regex("foreign ([0-9]+)"));
+    return r;
+  }();
+  ASSERT_FALSE(m.empty()) << base.output;
+  EXPECT_GT(std::stoll(m[1]), 0) << base.output;
 }
 
 // Robot 2's own keys, kept from before the revoke: a base with the old revocation list
@@ -162,8 +186,12 @@ TEST(SecureFleet, EveryTopicHasOnePublishingRoleInTheKeysScript) {
   const std::string topics = read_file(std::string(CAIRN_SOURCE_DIR_STR) + "/common/dds/topics.hpp");
   const std::string script = read_file(kKeys);
   std::set<std::string> names;
-  const std::regex topic_re("CAIRN_TOPIC\\(\\w+, \"(\\w+)\"\\)");
-  for (std::sregex_iterator it(topics.begin(), topics.end(), topic_re), end; it != end; ++it) names.insert((*it)[1]);
+  std::set<std::string> per_robot;  // TopicTraits<T>::per_robot: a robot's, in its partition
+  const std::regex topic_re("CAIRN_TOPIC\\(\\w+, \"(\\w+)\", (true|false)\\)");
+  for (std::sregex_iterator it(topics.begin(), topics.end(), topic_re), end; it != end; ++it) {
+    names.insert((*it)[1]);
+    if ((*it)[2] == "true") per_robot.insert((*it)[1]);
+  }
   ASSERT_GE(names.size(), 12u);
   auto list = [&](const std::string& var) {
     const std::regex re(var + "=\"([^\"]*)\"");
@@ -177,6 +205,12 @@ TEST(SecureFleet, EveryTopicHasOnePublishingRoleInTheKeysScript) {
   const std::set<std::string> robot = list("robot_publishes"), base = list("base_publishes"),
                               reads = list("robot_reads");
   for (const std::string& t : names) EXPECT_EQ(robot.count(t) + base.count(t), 1u) << t;
+  EXPECT_EQ(per_robot, robot) << "the topics robots publish are the per-robot ones";
+  // ... in the partitions common/dds/partition.hpp names.
+  const std::string partition_h = read_file(std::string(CAIRN_SOURCE_DIR_STR) + "/common/dds/partition.hpp");
+  std::smatch prefix;
+  ASSERT_TRUE(std::regex_search(partition_h, prefix, std::regex("kRobotPartitionPrefix = \"([^\"]*)\"")));
+  EXPECT_NE(script.find("robot_partition_prefix=\"" + prefix[1].str() + "\""), std::string::npos) << prefix[1];
   for (const std::string& t : robot) EXPECT_EQ(names.count(t), 1u) << "not a Cairn topic: " << t;
   for (const std::string& t : base) EXPECT_EQ(names.count(t), 1u) << "not a Cairn topic: " << t;
   for (const std::string& t : reads) {

@@ -23,7 +23,7 @@ int main(int argc, char** argv) {
   install_shutdown_handlers();
   const fleet_stream::FleetScenario s = fleet_stream::make_fleet_scenario(robots, steps);
   dds::Participant pp(dds::loopback_profile(static_cast<std::uint32_t>(domain)));
-  fleet_stream::FleetPublisher fleet(pp, depth);
+  fleet_stream::FleetPublisher fleet(pp, robots, depth);
   if (readers > 0 && !fleet.wait_for_readers(static_cast<std::uint32_t>(readers), 10 * kNanosPerSecond)) {
     std::fprintf(stderr, "feeder: fewer than %d readers after 10 s\n", readers);
     return 1;

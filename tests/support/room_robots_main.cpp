@@ -52,11 +52,15 @@ int main(int argc, char** argv) {
   dds::Topic<cairn_RobotStatus> status_topic(pp);
   dds::Topic<cairn_OdometryIncrement> odom_topic(pp);
   dds::Topic<cairn_LaserScan> scan_topic(pp);
-  dds::Writer<cairn_RobotStatus> status(pp, status_topic, dds::state_qos(1));
-  dds::Writer<cairn_OdometryIncrement> odom(pp, odom_topic, dds::latched_qos(64));
-  dds::Writer<cairn_LaserScan> scans(pp, scan_topic, dds::state_qos(4));
+  // Each robot writes in its own partition, as cairn-robot does: one writer per robot.
+  dds::Writer<cairn_RobotStatus> status[kRobots] = {{pp, status_topic, dds::state_qos(1), 1},
+                                                    {pp, status_topic, dds::state_qos(1), 2}};
+  dds::Writer<cairn_OdometryIncrement> odom[kRobots] = {{pp, odom_topic, dds::latched_qos(64), 1},
+                                                        {pp, odom_topic, dds::latched_qos(64), 2}};
+  dds::Writer<cairn_LaserScan> scans[kRobots] = {{pp, scan_topic, dds::state_qos(4), 1},
+                                                 {pp, scan_topic, dds::state_qos(4), 2}};
   dds::Topic<cairn_Bid> bid_topic(pp);
-  dds::Writer<cairn_Bid> bids(pp, bid_topic, dds::state_qos(1));
+  dds::Writer<cairn_Bid> bids(pp, bid_topic, dds::state_qos(1), 1);  // robot 1 bids
   dds::Topic<cairn_SafetyReset> reset_topic(pp);
   dds::Reader<cairn_SafetyReset> resets(pp, reset_topic, dds::state_qos(4));
   dds::Topic<cairn_SafetyStop> stop_topic(pp);
@@ -114,7 +118,7 @@ int main(int argc, char** argv) {
       o.boot_epoch = 7;
       cairn_OdometryIncrement od{};
       dds::to_dds(o, &od);
-      odom.write(od);
+      odom[r].write(od);
       if (seq % 4 != 0) continue;  // status and scans at 5 Hz
       cairn_RobotStatus st{};
       st.robot_id = id;
@@ -136,7 +140,7 @@ int main(int argc, char** argv) {
       st.n_devices = 1;
       dds::set_text(st.devices[0].name, "lms");
       dds::set_text(st.devices[0].reason, "scanning");
-      status.write(st);
+      status[r].write(st);
       const Pose2 world = compose(kStarts[r], local[r]);
       msg::LaserScan s;
       s.robot_id = id;
@@ -152,7 +156,7 @@ int main(int argc, char** argv) {
       s.pose = local[r];
       *scan_sample = {};
       dds::to_dds(s, scan_sample.get());
-      scans.write(*scan_sample);
+      scans[r].write(*scan_sample);
     }
   }
   return 0;

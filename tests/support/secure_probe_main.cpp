@@ -2,9 +2,11 @@
 // fleet member's keys (or not: "none"), that publishes or reads one Cairn topic for a
 // bounded time and says what happened (tests/security/secure_fleet_test.cpp).
 //
-//   cairn-test-secure-probe KEYS|none pub|sub task|status SECONDS DOMAIN [ROBOT_ID]
+//   cairn-test-secure-probe KEYS|none pub|sub task|status SECONDS DOMAIN [ROBOT_ID [PARTITION_ROBOT]]
 //
-// A publisher stops 1 s after a reader matched.
+// A publisher stops 1 s after a reader matched. A status is keyed ROBOT_ID (default 1) and
+// written in robot PARTITION_ROBOT's partition (default ROBOT_ID); a reader says how many
+// samples it dropped as another robot's ("foreign").
 // Exit status: 0 a reader matched (pub) / samples arrived (sub); 3 the participant was
 // refused (bad or tampered keys); 4 the writer or reader was refused (permissions);
 // 5 nothing matched or arrived in SECONDS; 2 bad arguments.
@@ -27,12 +29,17 @@ using namespace cairn;
 namespace {
 
 template <typename T>
-int publish(const dds::Participant& pp, const T& sample, Nanos deadline) {
+int publish(const dds::Participant& pp, const T& sample, std::uint16_t partition_robot, Nanos deadline) {
   std::unique_ptr<dds::Topic<T>> topic;
   std::unique_ptr<dds::Writer<T>> w;
   try {
     topic = std::make_unique<dds::Topic<T>>(pp);
-    w = std::make_unique<dds::Writer<T>>(pp, *topic, dds::state_qos(1));
+    if constexpr (dds::PerRobotTopic<T>) {
+      w = std::make_unique<dds::Writer<T>>(pp, *topic, dds::state_qos(1), partition_robot);
+    } else {
+      (void)partition_robot;
+      w = std::make_unique<dds::Writer<T>>(pp, *topic, dds::state_qos(1));
+    }
   } catch (const dds::DdsError& e) {
     std::printf("writer refused: %s\n", e.what());
     return 4;
@@ -70,7 +77,7 @@ int subscribe(const dds::Participant& pp, Nanos deadline) {
     (void)r->wait(50 * kNanosPerMilli);
     n += r->take([](const T&, const dds_sample_info_t&) {});
   }
-  std::printf("received %zu\n", n);
+  std::printf("received %zu, foreign %llu\n", n, static_cast<unsigned long long>(r->foreign_samples()));
   return n > 0 ? 0 : 5;
 }
 
@@ -78,13 +85,14 @@ int subscribe(const dds::Participant& pp, Nanos deadline) {
 
 int main(int argc, char** argv) {
   if (argc < 6) {
-    std::fprintf(stderr, "usage: %s KEYS|none pub|sub task|status SECONDS DOMAIN [ROBOT_ID]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s KEYS|none pub|sub task|status SECONDS DOMAIN [ROBOT_ID [PARTITION_ROBOT]]\n", argv[0]);
     return 2;
   }
   const std::string keys = argv[1], mode = argv[2], topic = argv[3];
   const double seconds = std::atof(argv[4]);
   const int domain = std::atoi(argv[5]);
   const int robot = argc > 6 ? std::atoi(argv[6]) : 1;
+  const int partition_robot = argc > 7 ? std::atoi(argv[7]) : robot;
   if ((mode != "pub" && mode != "sub") || (topic != "task" && topic != "status") || !(seconds > 0) || domain < 1 ||
       domain > 230) {
     std::fprintf(stderr, "secure-probe: bad arguments\n");
@@ -105,11 +113,11 @@ int main(int argc, char** argv) {
     cairn_TaskAssignment t{};
     t.robot_id = static_cast<std::uint16_t>(robot);
     t.task_id = 7;
-    return publish(*pp, t, deadline);
+    return publish(*pp, t, 0, deadline);
   }
   if (mode == "sub") return subscribe<cairn_RobotStatus>(*pp, deadline);
   cairn_RobotStatus s{};
   s.robot_id = static_cast<std::uint16_t>(robot);
   dds::set_text(s.name, "probe");
-  return publish(*pp, s, deadline);
+  return publish(*pp, s, static_cast<std::uint16_t>(partition_robot), deadline);
 }

@@ -1,6 +1,7 @@
 // Publishes a fleet stream (fleet_scenario.hpp) over DDS as the robots would: odometry and
 // features on reliable, transient-local writers with a deep history (a base that starts or
-// restarts late still fetches what it missed). Used by cairn-fuzz-base and the tests' feeder.
+// restarts late still fetches what it missed), each robot's in its own partition. Used by
+// cairn-fuzz-base and the tests' feeder.
 #pragma once
 
 #include <memory>
@@ -13,12 +14,18 @@ namespace cairn::fleet_stream {
 
 class FleetPublisher {
  public:
-  FleetPublisher(const dds::Participant& pp, int depth)
+  /// Robots 1 .. robots (as make_fleet_scenario numbers them).
+  FleetPublisher(const dds::Participant& pp, int robots, int depth)
       : odom_topic_(pp),
         feat_topic_(pp),
         odom_(pp, odom_topic_, dds::latched_qos(depth)),
         feat_(pp, feat_topic_, dds::latched_qos(depth)),
-        feat_sample_(std::make_unique<cairn_FeatureObservations>()) {}
+        feat_sample_(std::make_unique<cairn_FeatureObservations>()) {
+    for (int r = 1; r <= robots; ++r) {  // all writers now: the waits below cover each
+      odom_.writer(static_cast<std::uint16_t>(r));
+      feat_.writer(static_cast<std::uint16_t>(r));
+    }
+  }
 
   /// Writes one message; returns the odometry it carried (nullptr for features).
   const msg::OdometryIncrement* publish(const FleetMessage& m) {
@@ -47,8 +54,8 @@ class FleetPublisher {
  private:
   dds::Topic<cairn_OdometryIncrement> odom_topic_;
   dds::Topic<cairn_FeatureObservations> feat_topic_;
-  dds::Writer<cairn_OdometryIncrement> odom_;
-  dds::Writer<cairn_FeatureObservations> feat_;
+  dds::RobotWriters<cairn_OdometryIncrement> odom_;
+  dds::RobotWriters<cairn_FeatureObservations> feat_;
   std::unique_ptr<cairn_FeatureObservations> feat_sample_;  // 1.9 kB: not on the stack
   std::uint64_t odometry_ = 0, features_ = 0;
 };

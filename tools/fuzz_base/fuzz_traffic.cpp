@@ -6,13 +6,45 @@ namespace cairn::fuzz {
 
 namespace {
 
+// A topic robots publish has a writer per robot id (in that robot's partition), at most this
+// many per topic: the id sweep would otherwise make thousands.
+constexpr std::size_t kMaxRobotWriters = 32;
+// Every this many samples of a robot topic goes out in another robot's partition, as a robot
+// lying about its id would: the base must drop each (its reader's foreign_samples).
+constexpr std::uint64_t kMisplaceEvery = 16;
+
+template <typename T>
+struct WriterFor {
+  using type = dds::Writer<T>;
+};
+template <dds::PerRobotTopic T>
+struct WriterFor<T> {
+  using type = dds::RobotWriters<T>;
+};
+template <typename T>
+using WriterOf = typename WriterFor<T>::type;
+
 template <typename T>
 struct TopicWriter {
   dds::Topic<T> topic;
-  dds::Writer<T> writer;
+  WriterOf<T> writer;
   std::unique_ptr<T> sample = std::make_unique<T>();  // up to 3 kB: not on the stack
   explicit TopicWriter(const dds::Participant& pp) : topic(pp), writer(pp, topic, dds::latched_qos(1)) {}
 };
+
+template <typename T>
+bool write_sample(dds::Writer<T>& w, const T& s, bool /*misplace*/, bool* /*misplaced*/) {
+  return w.write(s);
+}
+
+/// In the sample's robot's partition, unless `misplace` or the writers are at their bound
+/// and this robot has none: then in robot 1's (robot 2's for robot 1's sample).
+template <typename T>
+bool write_sample(dds::RobotWriters<T>& w, const T& s, bool misplace, bool* misplaced) {
+  *misplaced = misplace || (!w.has(s.robot_id) && w.size() >= kMaxRobotWriters);
+  if (!*misplaced) return w.write(s);
+  return w.writer(s.robot_id == 1 ? 2 : 1).write(s);
+}
 
 }  // namespace
 
@@ -20,7 +52,7 @@ struct FuzzTraffic::Writers {
   TopicWriter<cairn_OdometryIncrement> odometry;
   TopicWriter<cairn_FeatureObservations> features;
   TopicWriter<cairn_LaserScan> scan;
-  dds::Writer<cairn_LaserScan> scan_best_effort;
+  dds::RobotWriters<cairn_LaserScan> scan_best_effort;
   TopicWriter<cairn_RobotStatus> status;
   TopicWriter<cairn_Bid> bid;
   TopicWriter<cairn_VisitRequest> visit;
@@ -52,10 +84,11 @@ void FuzzTraffic::send_one() {
   // Fill the topic's sample, maybe move it onto the id sweep, write it with `writer`.
   Mutation m{};
   bool ok = false;
+  bool misplaced = false;
   auto emit = [&](auto& tw, auto fill, auto& writer) {
     m = (mutator_.*fill)(tw.sample.get());
     mutator_.sweep(&tw.sample->robot_id);
-    ok = writer.write(*tw.sample);
+    ok = write_sample(writer, *tw.sample, total_ % kMisplaceEvery == kMisplaceEvery - 1, &misplaced);
   };
   switch (t) {
     case Topic::kOdometry: emit(w_->odometry, &SampleMutator::odometry, w_->odometry.writer); break;
@@ -69,6 +102,7 @@ void FuzzTraffic::send_one() {
   ++sent_[static_cast<std::size_t>(t)][static_cast<std::size_t>(m)];
   ++total_;
   refused_ += ok ? 0 : 1;
+  misplaced_ += misplaced ? 1 : 0;
 }
 
 }  // namespace cairn::fuzz

@@ -26,6 +26,8 @@ class FuzzTraffic {
   bool fuzzes(Topic t) const;
   std::uint64_t total() const { return total_; }
   std::uint64_t refused_by_writer() const { return refused_; }
+  /// Robot-topic samples written in another robot's partition (the base must drop them all).
+  std::uint64_t misplaced() const { return misplaced_; }
 
  private:
   struct Writers;
@@ -33,7 +35,7 @@ class FuzzTraffic {
   std::vector<Topic> rotation_;
   std::unique_ptr<Writers> w_;
   std::array<std::array<std::uint64_t, kMutations>, kTopics> sent_{};
-  std::uint64_t total_ = 0, refused_ = 0, turn_ = 0;
+  std::uint64_t total_ = 0, refused_ = 0, misplaced_ = 0, turn_ = 0;
 };
 
 }  // namespace cairn::fuzz

@@ -112,7 +112,7 @@ int run(Options o) {
   }
 
   dds::Participant pp(dds::loopback_profile(static_cast<std::uint32_t>(o.domain)));
-  fleet_stream::FleetPublisher fleet(pp, 4096);
+  fleet_stream::FleetPublisher fleet(pp, o.robots, 4096);
   fuzz::MutatorConfig mc;
   mc.seed = o.seed;
   mc.sweep_ids = o.sweep_ids;
@@ -245,6 +245,14 @@ int run(Options o) {
   if (traffic.total() >= 2000 && traffic.fuzzes(fuzz::Topic::kStatus) && fleet_refused <= 0) {
     failures.emplace_back("the fleet table refused no status of an unlisted robot: did the fuzz reach it?");
   }
+  // Samples written in another robot's partition are dropped by the base's readers, counted.
+  long long foreign_dropped = -1;
+  if (const auto at = fleet_line.find(" refused, "); at != std::string::npos) foreign_dropped = std::atoll(fleet_line.c_str() + at + 10);
+  if (traffic.misplaced() > 0 && foreign_dropped <= 0) {
+    std::snprintf(b, sizeof b, "the base dropped no sample of another robot's id (%llu written in the wrong partition)",
+                  static_cast<unsigned long long>(traffic.misplaced()));
+    failures.emplace_back(b);
+  }
   // Visit requests for robots the fusion does not hold are refused and counted.
   const std::string explore_line = fuzz::last_line_with(log, "explore: ");
   long long visits_refused = -1;
@@ -321,6 +329,8 @@ int run(Options o) {
   report["sent"] = sent;
   report["sent_total"] = traffic.total();
   report["refused_by_writer"] = traffic.refused_by_writer();
+  report["misplaced"] = traffic.misplaced();
+  report["base_dropped_misplaced"] = foreign_dropped;
   report["fleet"] = {{"robots", o.robots}, {"odometry", fleet.odometry()}, {"features", fleet.features()}};
   report["base"] = {{"exit", exit.describe()},
                     {"state_finite", fl.finite},

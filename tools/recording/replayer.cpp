@@ -30,6 +30,12 @@ Replayer::Replayer(const dds::Participant& pp, const mcap::Contents& rec, Replay
     }
     by_channel_[id] = w;
   }
+  // Each robot's writer of a per-robot topic now, so the wait for readers below covers it.
+  for (const mcap::Message& m : rec_.messages) {
+    const auto it = by_channel_.find(m.channel);
+    if (it == by_channel_.end() || !it->second->topic().per_robot) continue;
+    if (const std::optional<std::uint16_t> robot = cdr_robot_id(m.data)) it->second->add_robot(*robot);
+  }
 }
 
 ReplayResult Replayer::run(const std::function<bool()>& stop, const std::function<void(const std::string&)>& progress) {

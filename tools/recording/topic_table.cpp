@@ -16,7 +16,8 @@ using dds::state_qos;
 
 template <typename T>
 TopicEntry entry(const char* type_name, QosSpec record, QosSpec replay) {
-  return {dds::TopicTraits<T>::name, type_name, dds::TopicTraits<T>::descriptor(), record, replay};
+  return {dds::TopicTraits<T>::name, type_name, dds::TopicTraits<T>::descriptor(), record, replay,
+          dds::PerRobotTopic<T>};
 }
 
 // The recorder keeps a deep history per instance so a burst between two takes is not

@@ -18,6 +18,7 @@ struct TopicEntry {
   const dds_topic_descriptor_t* descriptor;  // idlc's
   dds::QosSpec record_qos;                   // the recorder's reader
   dds::QosSpec replay_qos;                   // a replay writer: as the original writer
+  bool per_robot;                            // robots publish it, each in its partition (common/dds/partition.hpp)
 };
 
 /// All topics of common/dds/topics.hpp, in that order.
