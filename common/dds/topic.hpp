@@ -247,6 +247,8 @@ class Reader {
   bool is_foreign(const T& s, const dds_sample_info_t& info) {
     if constexpr (PerRobotTopic<T>) {
       // Data and disposes carry their writer; a "no writers" change may not (and is harmless).
+      // A dispose that lands on a still unread data sample shows as that sample's state, with
+      // the data's writer: it cannot be told apart (the robot's next status revives it).
       if (!info.valid_data && info.instance_state != DDS_IST_NOT_ALIVE_DISPOSED) return false;
       return writer_robots_.foreign(reader_.get(), info.publication_handle, s.robot_id);
     } else {
