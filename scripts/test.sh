@@ -15,6 +15,11 @@ export CYCLONEDDS_URI="file://$PWD/config/dds/loopback.xml"   # every DDS progra
 start=$(date +%s)
 stage() { echo "== test: $* (at $(( $(date +%s) - start )) s)"; }   # elapsed per stage: where CI's time goes
 
+# The labels each sanitizer pass skips: benchmarks (timing), the tests labelled slow (minutes
+# under a sanitizer), packaging and layers (they check files, not our running code); TSan
+# also the tests that start no thread.
+asan_skip='bench|slow|packaging|layers'
+tsan_skip="$asan_skip|single-threaded"
 stage "build (ci preset: release, -Werror)"
 scripts/build.sh ci
 if ((quick == 0)); then
@@ -24,15 +29,16 @@ if ((quick == 0)); then
   # Each pass waits for its own build. One build at a time, in the order the passes need.
   bg=build/background-builds
   rm -rf "$bg"; mkdir -p "$bg"
+  # The sanitizer passes build only what the tests they run need (scripts/build-for-tests.sh).
   chrt --idle 0 nice -n 19 bash -c '
-    bg=$1
+    bg=$1 asan_skip=$2 tsan_skip=$3
     step() { local name=$1; shift
       if "$@" > "$bg/$name.log" 2>&1; then touch "$bg/$name.ok"; else touch "$bg/$name.failed"; exit 1; fi; }
-    step asan scripts/build.sh asan
-    step tsan scripts/build.sh tsan
+    step asan scripts/build-for-tests.sh asan "$asan_skip"
+    step tsan scripts/build-for-tests.sh tsan "$tsan_skip"
     step fuzz bash -c "cmake --preset fuzz && cmake --build --preset fuzz --target fuzzers"
     step aarch64 scripts/build-cross.sh aarch64
-    step armhf scripts/build-cross.sh armhf' background-builds "$bg" &
+    step armhf scripts/build-cross.sh armhf' background-builds "$bg" "$asan_skip" "$tsan_skip" &
   bg_pid=$!
   kill_tree() { local c; for c in $(cat /proc/"$1"/task/*/children 2>/dev/null); do kill_tree "$c"; done; kill "$1" 2>/dev/null || true; }
   trap 'kill_tree $bg_pid' EXIT
@@ -56,11 +62,11 @@ if ((quick == 0)); then
   await_build asan
   stage "unit and integration tests under ASan + UBSan"
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-    ctest --preset asan -j2 -LE 'bench|slow|packaging|layers'
+    ctest --preset asan -j2 -LE "$asan_skip"
   stage "build (tsan preset: ThreadSanitizer, -Werror; the tests labelled single-threaded, which start no thread, are not built): in the background"
   await_build tsan
   stage "unit and integration tests under TSan"
-  TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1" ctest --preset tsan -j2 -LE 'bench|slow|packaging|layers|single-threaded'
+  TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1" ctest --preset tsan -j2 -LE "$tsan_skip"
   stage "fuzz targets (clang libFuzzer + ASan/UBSan), 8 s each, two at a time (longer: scripts/fuzz.sh SECONDS)"
   await_build fuzz
   scripts/fuzz.sh 8
