@@ -11,8 +11,21 @@ set(CAIRN_TEST_ENVIRONMENT
   "CAIRN_BINARY_DIR=${PROJECT_BINARY_DIR}"
   "TSAN_OPTIONS=suppressions=${PROJECT_SOURCE_DIR}/tests/tsan.supp")
 
+# CAIRN_TEST_LABELS (a regex; empty: all): only the tests with a label it matches are built
+# and registered; the others stay targets, out of `all` (scripts/build-cross.sh --tests-labelled).
+set(CAIRN_TEST_LABELS "" CACHE STRING "Build and register only the tests with a label matching this regex (empty: all)")
+
 function(cairn_add_test)
   cmake_parse_arguments(T "COUNT_ALLOCS" "NAME;TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
+  set(T_PICKED TRUE)
+  if(CAIRN_TEST_LABELS)
+    set(T_PICKED FALSE)
+    foreach(label IN LISTS T_LABELS)
+      if(label MATCHES "${CAIRN_TEST_LABELS}")
+        set(T_PICKED TRUE)
+      endif()
+    endforeach()
+  endif()
   if(T_COUNT_ALLOCS AND NOT CAIRN_SANITIZE)
     list(APPEND T_SOURCES ${PROJECT_SOURCE_DIR}/tests/support/alloc_counter.cpp)
   endif()
@@ -28,6 +41,10 @@ function(cairn_add_test)
   # so the TSan build neither builds nor runs it (it stays a target: later properties and
   # dependencies still apply). Elsewhere (not under the sanitizers, which hook thread
   # creation themselves) the guard fails the test if it starts a thread after all.
+  if(NOT T_PICKED)
+    set_target_properties(${T_NAME} PROPERTIES EXCLUDE_FROM_ALL TRUE)
+    return()
+  endif()
   if("single-threaded" IN_LIST T_LABELS)
     if(CAIRN_SANITIZE STREQUAL "thread")
       set_target_properties(${T_NAME} PROPERTIES EXCLUDE_FROM_ALL TRUE)

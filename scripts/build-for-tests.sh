@@ -1,21 +1,30 @@
 #!/usr/bin/env bash
-# Configures a CMake preset and builds only what its tests need: every test whose labels
-# do not match LABEL_REGEX (as `ctest -LE LABEL_REGEX` would pick them), the executable
+# Configures a CMake preset and builds only what its tests need: every test that
+# `ctest -L INCLUDE -LE EXCLUDE` would pick (label regexes, both optional), the executable
 # each one runs and every program of the build tree on its command line; add_dependencies
 # brings the programs a test starts by itself. The sanitizer passes of scripts/test.sh use
 # it so that they do not compile tools and tests they never run.
-#   scripts/build-for-tests.sh [--list] PRESET [LABEL_REGEX]   (--list: print the targets, build nothing)
+#   scripts/build-for-tests.sh [--list] PRESET [-L INCLUDE] [-LE EXCLUDE]   (--list: print the targets, build nothing)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+usage="usage: scripts/build-for-tests.sh [--list] PRESET [-L INCLUDE] [-LE EXCLUDE]"
 list=0
 [[ ${1:-} == --list ]] && { list=1; shift; }
-preset=${1:?usage: scripts/build-for-tests.sh [--list] PRESET [LABEL_REGEX]}
-exclude=${2:-}
+preset=${1:?$usage}
+shift
+include='' exclude=''
+while (($#)); do
+  case "$1" in
+    -L) include=${2:?$usage}; shift 2 ;;
+    -LE) exclude=${2:?$usage}; shift 2 ;;
+    *) echo "build-for-tests: unknown argument '$1' ($usage)" >&2; exit 2 ;;
+  esac
+done
 cmake --preset "$preset" >/dev/null
 build=build/$preset
-mapfile -t targets < <(python3 - "$build" "$exclude" <<'EOF'
+mapfile -t targets < <(python3 - "$build" "$include" "$exclude" <<'EOF'
 import os, re, sys
-build, exclude = os.path.realpath(sys.argv[1]), sys.argv[2]
+build, include, exclude = os.path.realpath(sys.argv[1]), sys.argv[2], sys.argv[3]
 commands, labels = {}, {}
 for root, _, files in os.walk(build):
     if 'CTestTestfile.cmake' not in files:
@@ -31,7 +40,10 @@ if not commands:
     sys.exit(f'build-for-tests: no tests found under {build}')
 out = set()
 for name, args in commands.items():
-    if exclude and any(re.search(exclude, l) for l in labels.get(name, [])):
+    mine = labels.get(name, [])
+    if include and not any(re.search(include, l) for l in mine):
+        continue
+    if exclude and any(re.search(exclude, l) for l in mine):
         continue
     for arg in args:
         for part in arg.split('='):   # --flag=PATH too
@@ -40,7 +52,8 @@ for name, args in commands.items():
 print('\n'.join(sorted(out)))
 EOF
 )
-((${#targets[@]})) || { echo "build-for-tests: no test of $preset selected (labels excluded: '$exclude')" >&2; exit 1; }
+picked="labels: included '${include:-any}', excluded '${exclude:-none}'"
+((${#targets[@]})) || { echo "build-for-tests: no test of $preset selected ($picked)" >&2; exit 1; }
 ((list)) && { printf '%s\n' "${targets[@]}"; exit 0; }
-echo "build-for-tests: $preset: ${#targets[@]} test executables and programs (labels excluded: '${exclude:-none}')"
+echo "build-for-tests: $preset: ${#targets[@]} test executables and programs ($picked)"
 cmake --build --preset "$preset" --target "${targets[@]}"
