@@ -129,9 +129,6 @@ double mrclam_start(const MrclamData& d) {
   return t0;
 }
 
-namespace {
-
-// Multi-start ICP of `est` onto `gt` by nearest neighbour; returns the RMSE and, per est point, the gt index.
 double label_free_fit(const std::vector<Vec2>& est, const std::vector<Vec2>& gt, std::vector<int>* nearest) {
   if (est.size() < 2 || gt.empty()) return -1;
   Vec2 ce = Vec2::Zero(), cg = Vec2::Zero();
@@ -174,6 +171,8 @@ double label_free_fit(const std::vector<Vec2>& est, const std::vector<Vec2>& gt,
   }
   return best;
 }
+
+namespace {
 
 class Runner {
  public:

@@ -97,12 +97,17 @@ struct MrclamResult {
   double landmark_rmse_label_free = -1;
   std::vector<std::pair<int, int>> label_mismatches;  // (label, ground-truth landmark it lands on)
   std::size_t measurements_used = 0, measurements_rejected = 0, association_errors = 0;
+  bool association_errors_known = true;  // false when the estimator never saw the labels (base-fusion)
   std::size_t unknown_barcodes_dropped = 0;
   double runtime_s = 0;
   double duration_s = 0;
 };
 
 MrclamResult run_mrclam(const MrclamData& data, const MrclamOptions& options);
+
+/// Multi-start ICP of `est` onto `gt` by nearest neighbour: the RMSE and, per est point,
+/// the index of its gt point; -1 (and `nearest` untouched) with fewer than 2 points.
+double label_free_fit(const std::vector<Vec2>& est, const std::vector<Vec2>& gt, std::vector<int>* nearest);
 
 const char* mode_name(MrclamOptions::Mode m);
 const char* association_name(MrclamOptions::Association a);

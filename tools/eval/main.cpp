@@ -32,7 +32,7 @@ int main(int argc, char** argv) {
   auto* mc = app.add_subcommand("mrclam",
                                 "UTIAS MRCLAM dataset: dead reckoning, single-robot EKF-SLAM and cooperative CML vs ground truth");
   mc->add_option("dir", mr.dir, "dataset directory (e.g. data/mrclam/MRCLAM_Dataset6; files plain or .gz)")->required()->check(CLI::ExistingDirectory);
-  mc->add_option("--association", mr.association, "landmark data association: labels, jcbb or both")
+  mc->add_option("--association", mr.association, "landmark data association: labels, jcbb or both (jcbb and both add base-fusion: the base station's own Fusion)")
       ->check(CLI::IsMember({"labels", "jcbb", "both"}));
   mc->add_option("--duration", mr.duration, "use only the first S seconds (0 = all)")->check(CLI::NonNegativeNumber);
   mc->add_option("--iterations", mr.iterations, "EKF update iterations (1 = EKF)")->check(CLI::Range(1, 50));
