@@ -38,6 +38,11 @@ for root, _, files in os.walk(build):
             labels[m.group(1)] = m.group(2).split(';')
 if not commands:
     sys.exit(f'build-for-tests: no tests found under {build}')
+# Only what the build can make: a test's output directory or data file under the build
+# tree is an argument, not a target.
+import subprocess
+known = {line.split(': ')[0] for line in subprocess.run(['ninja', '-C', build, '-t', 'targets', 'all'],
+                                                      capture_output=True, text=True, check=True).stdout.splitlines()}
 out = set()
 for name, args in commands.items():
     mine = labels.get(name, [])
@@ -47,7 +52,7 @@ for name, args in commands.items():
         continue
     for arg in args:
         for part in arg.split('='):   # --flag=PATH too
-            if part.startswith(build + '/') and not os.path.isdir(part):
+            if part.startswith(build + '/') and os.path.relpath(part, build) in known:
                 out.add(os.path.relpath(part, build))
 print('\n'.join(sorted(out)))
 EOF
