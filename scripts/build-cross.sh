@@ -25,7 +25,7 @@ while (($#)); do
   esac
 done
 scripts/setup-cross.sh "$target"
-cmake --preset "$target" -DCAIRN_TEST_LABELS="$labels" >/dev/null   # always set: no subset left over from a previous run
+cmake --preset "$target" ${labels:+"-DCAIRN_TEST_LABELS=$labels"} >/dev/null   # the preset resets it otherwise
 cmake --build --preset "$target"
 echo "build-cross: $target binaries in build/$target (file build/$target/firmware/cairn-robot: $(file -b build/$target/firmware/cairn-robot | cut -d, -f1-2))"
 if ((run_tests)); then

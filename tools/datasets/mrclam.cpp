@@ -129,6 +129,17 @@ double mrclam_start(const MrclamData& d) {
   return t0;
 }
 
+double mrclam_end(const MrclamData& d, const MrclamOptions& o) {
+  const bool gt = d.has_robot_groundtruth();
+  double t_end = 1e300;
+  for (const auto& rd : d.robots) {
+    if (gt) t_end = std::min(t_end, rd.groundtruth.back().t);
+    else if (!rd.odometry.empty()) t_end = std::min(t_end, rd.odometry.back().t);
+  }
+  if (o.duration > 0) t_end = std::min(t_end, mrclam_start(d) + o.duration);
+  return t_end;
+}
+
 double label_free_fit(const std::vector<Vec2>& est, const std::vector<Vec2>& gt, std::vector<int>* nearest) {
   if (est.size() < 2 || gt.empty()) return -1;
   Vec2 ce = Vec2::Zero(), cg = Vec2::Zero();
@@ -377,12 +388,7 @@ MrclamResult Runner::run() {
   // Start: the first ground-truth instant (robots stand still until their first odometry), else the first odometry.
   // A robot whose ground truth starts later joins then (join_at_groundtruth).
   t0_ = mrclam_start(d_);
-  double t_end = 1e300;
-  for (const auto& rd : d_.robots) {
-    if (gt) t_end = std::min(t_end, rd.groundtruth.back().t);
-    else if (!rd.odometry.empty()) t_end = std::min(t_end, rd.odometry.back().t);
-  }
-  if (o_.duration > 0) t_end = std::min(t_end, t0_ + o_.duration);
+  const double t_end = mrclam_end(d_, o_);
 
   P0_ = Vec3(o_.initial_sigma_xy * o_.initial_sigma_xy, o_.initial_sigma_xy * o_.initial_sigma_xy,
              o_.initial_sigma_theta * o_.initial_sigma_theta)

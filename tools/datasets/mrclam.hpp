@@ -70,6 +70,8 @@ Mat3 mrclam_odometry_cov(const MrclamOptions& o, double v, double w, double dt);
 std::optional<Pose2> interpolate_groundtruth(const std::vector<MrclamPose>& gt, double t, std::size_t* hint);
 /// The runs' start: the earliest ground-truth sample, else the earliest odometry.
 double mrclam_start(const MrclamData& d);
+/// The runs' end: the earliest last ground-truth sample (else last odometry), cut to `o.duration`.
+double mrclam_end(const MrclamData& d, const MrclamOptions& o);
 
 struct MrclamRobotResult {
   int robot = 0;

@@ -36,12 +36,7 @@ MrclamResult run_mrclam_base(const MrclamData& d, const MrclamOptions& o, base::
   const int n = static_cast<int>(d.robots.size());
   const bool gt = d.has_robot_groundtruth();
   const double t0 = mrclam_start(d);
-  double t_end = 1e300;
-  for (const auto& rd : d.robots) {
-    if (gt) t_end = std::min(t_end, rd.groundtruth.back().t);
-    else if (!rd.odometry.empty()) t_end = std::min(t_end, rd.odometry.back().t);
-  }
-  if (o.duration > 0) t_end = std::min(t_end, t0 + o.duration);
+  const double t_end = mrclam_end(d, o);
 
   // The fleet. A robot whose ground truth starts later (robot 4 of Dataset 6) starts then.
   c.robots.clear();
